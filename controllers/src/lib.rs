@@ -1,0 +1,38 @@
+//! Controllers of the twin and the control-design math behind them.
+//!
+//! A controller acts on a machine only through joint efforts (torques on revolute joints, forces on
+//! prismatic joints). It sees a [`Measurement`]: named sensor, task-space, process and reference
+//! signals, laid out by the [`PlantInterface`] it is bound to at [`Controller::reset`].
+
+pub mod controller;
+pub mod design;
+pub mod registry;
+
+pub use controller::{
+    Actuator, Controller, ControllerError, EffortKind, Measurement, PlantInterface,
+};
+pub use registry::{parse_params, Registry};
+
+pub mod crank_pi;
+pub mod filters;
+pub mod output_feedback_design;
+pub mod p_pi;
+pub mod passive;
+pub mod stsmc;
+pub mod stsmc_dob;
+pub mod whitworth;
+
+/// Every controller shipped with the twin, in the order `twin list` shows them.
+fn builtin_entries() -> Vec<registry::Entry> {
+    vec![
+        passive::entry(),
+        crank_pi::entry(),
+        whitworth::osmc::entry(),
+        whitworth::ffc::entry(),
+        whitworth::lqt::entry(),
+        whitworth::smc2::entry(),
+        p_pi::entry(),
+        stsmc::entry(),
+        stsmc_dob::entry(),
+    ]
+}

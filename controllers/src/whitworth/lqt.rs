@@ -1,0 +1,79 @@
+//! `lqt`: the paper's linear-quadratic tracking baseline (§6.1): the feedforward of eq (37) (with
+//! the model's gravity, as in [`ffc`](super::ffc)) plus the LQR feedback minimising eq (39),
+//! `∫ eᵀQe + R·u_f² dt`, for the slider of eq (10); same compensator, profile and switching.
+//!
+//! The paper prints neither Q nor R. Q defaults to the OSMC's `diag(1000, 1)`; R is given
+//! relative to the slider's inertia, `R = r/m̄²` (a weight on the feedback's acceleration
+//! `u_f/m̄`), with `r = 10⁻³`: then `K = m̄·[√(q_pos/r), √(q_vel/r + 2√(q_pos/r))]
+//! = m̄·[1000, 54.8]`, the closed loop `λ² + 54.8λ + 1000` with the FFC's ω_n = 31.6 rad/s and
+//! ξ = 0.87. As with the FFC, `u_f = +K·e` on `e = z_d − z` realises `A − BK`.
+
+use super::ffc::FeedforwardFeedback;
+use super::slider::SliderModel;
+use super::task::{bad, TaskController, TaskDesign, TaskParams};
+use crate::design::{lqr, SliderWeights};
+use crate::registry::{parse_params, Entry};
+use crate::ControllerError;
+use nalgebra::DMatrix;
+use serde::Deserialize;
+
+/// Parameters of `lqt` (SI units).
+#[derive(Debug, Clone, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields, default)]
+pub struct LqtParams {
+    /// Q of eq (39).
+    pub weights: SliderWeights,
+    /// r, with `R = r/m̄²` in eq (39).
+    pub input_weight: f64,
+    pub task: TaskParams,
+}
+
+impl Default for LqtParams {
+    fn default() -> Self {
+        Self {
+            weights: SliderWeights::default(),
+            input_weight: 1e-3,
+            task: TaskParams::default(),
+        }
+    }
+}
+
+/// The LQR gain `K` (N/m, N·s/m) for the slider with mass m̄.
+pub fn design(params: &LqtParams, slider: &SliderModel) -> Result<[f64; 2], ControllerError> {
+    let w = params.weights;
+    for (name, value) in [
+        ("weights.position", w.position),
+        ("weights.velocity", w.velocity),
+        ("input_weight", params.input_weight),
+    ] {
+        if !(value.is_finite() && value > 0.0) {
+            return Err(bad("lqt", format!("{name} must be > 0, got {value}")));
+        }
+    }
+    let (a, b) = slider.state_space();
+    let q = DMatrix::from_row_slice(2, 2, &[w.position, 0.0, 0.0, w.velocity]);
+    let m = slider.nominal_mass();
+    let r = DMatrix::from_element(1, 1, params.input_weight / (m * m));
+    let design = lqr(&a, &b, &q, &r).map_err(|e| bad("lqt", e.to_string()))?;
+    Ok([design.gain[(0, 0)], design.gain[(0, 1)]])
+}
+
+/// `lqt` as the twin builds it.
+pub type Lqt = TaskController<FeedforwardFeedback>;
+
+/// Designs and builds `lqt`.
+pub fn build(params: LqtParams) -> Result<Lqt, ControllerError> {
+    let task = TaskDesign::new("lqt", &params.task)?;
+    let gain = design(&params, &task.slider)?;
+    let law = FeedforwardFeedback::new("LQT", task.slider.nominal_mass(), gain);
+    Ok(TaskController::new("lqt", params.task, task, law))
+}
+
+pub(crate) fn entry() -> Entry {
+    Entry {
+        name: "lqt",
+        machine: "whitworth",
+        summary: "feedforward + LQR feedback of the ram (OSMC paper's baseline)",
+        build: |table| Ok(Box::new(build(parse_params("lqt", table)?)?)),
+    }
+}

@@ -1,0 +1,87 @@
+//! `smc2`: the paper's second-order SMC baseline (§6.1): the law of eqs (27)–(30), exactly as in
+//! [`osmc`](super::osmc), on a hand-set hyperplane `s = m̄·(ė + c·e)` instead of the Riccati-optimal
+//! one, with the same compensator, profile and switching criterion.
+//!
+//! The paper does not print the baseline's surface. For the slider of eq (10) every hyperplane with
+//! `C·B = 1` has the form `m̄·[c, 1]`, and the optimal one of eqs 14–26 is `c = √(q_pos/q_vel)`: an
+//! SMC2 with slope c *is* the OSMC for `Q = diag(c², 1)`. What the comparison can show is therefore
+//! what the Riccati design's choice of slope buys over a hand-set one; the default `c = 10 s⁻¹`
+//! stands for a conventional hand tuning (a sliding motion about three times slower than the
+//! OSMC's −31.6 rad/s). Gains k₁, k₂, λ default to the OSMC's.
+
+use super::osmc::{second_order_gains, SecondOrderGains, SecondOrderSliding};
+use super::slider::SliderModel;
+use super::task::{bad, TaskController, TaskDesign, TaskParams};
+use crate::registry::{parse_params, Entry};
+use crate::ControllerError;
+use serde::Deserialize;
+
+/// Parameters of `smc2` (SI units).
+#[derive(Debug, Clone, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields, default)]
+pub struct Smc2Params {
+    /// c of `s = m̄·(ė + c·e)`, 1/s.
+    pub surface_slope: f64,
+    /// k₁ of eq (27), 1/s.
+    pub k1: f64,
+    /// k₂ of eq (30), N.
+    pub k2: f64,
+    /// λ of eq (29), 1/s.
+    pub reaching_rate: f64,
+    pub task: TaskParams,
+}
+
+impl Default for Smc2Params {
+    fn default() -> Self {
+        Self {
+            surface_slope: 10.0,
+            k1: 400.0,
+            k2: 15.0,
+            reaching_rate: 20.0,
+            task: TaskParams::default(),
+        }
+    }
+}
+
+/// The hand-set hyperplane and the checked law gains.
+pub fn design(
+    params: &Smc2Params,
+    slider: &SliderModel,
+) -> Result<SecondOrderGains, ControllerError> {
+    let c = params.surface_slope;
+    if !(c.is_finite() && c > 0.0) {
+        return Err(bad("smc2", format!("surface_slope must be > 0, got {c}")));
+    }
+    let m = slider.nominal_mass();
+    second_order_gains(
+        "smc2",
+        [m * c, m],
+        params.k1,
+        params.k2,
+        params.reaching_rate,
+    )
+}
+
+/// `smc2` as the twin builds it.
+pub type Smc2 = TaskController<SecondOrderSliding>;
+
+/// Designs and builds `smc2`.
+pub fn build(params: Smc2Params) -> Result<Smc2, ControllerError> {
+    let task = TaskDesign::new("smc2", &params.task)?;
+    let gains = design(&params, &task.slider)?;
+    Ok(TaskController::new(
+        "smc2",
+        params.task,
+        task,
+        SecondOrderSliding::new("SMC2", gains),
+    ))
+}
+
+pub(crate) fn entry() -> Entry {
+    Entry {
+        name: "smc2",
+        machine: "whitworth",
+        summary: "second-order SMC of the ram on a hand-set surface (OSMC paper's baseline)",
+        build: |table| Ok(Box::new(build(parse_params("smc2", table)?)?)),
+    }
+}

@@ -1,0 +1,18 @@
+//! The twin engine: planar URDF mechanisms simulated in Rapier, driven through joint efforts by
+//! controllers chosen at run time, recorded to Rerun `.rrd` files.
+//!
+//! One door in: [`Twin::run`]. Only [`physics`] knows Rapier; only `recording` knows Rerun.
+
+pub mod energy;
+pub mod machines;
+pub mod mechanism;
+pub mod physics;
+pub mod recording;
+pub mod run;
+pub mod scenario;
+pub mod sensors;
+pub mod summary;
+pub mod urdf;
+
+pub use run::{Divergence, RunSummary, Twin, TwinError};
+pub use scenario::{load as load_scenario, LoadedScenario, Overrides};

@@ -1,0 +1,88 @@
+//! Machines: what each mechanism measures in its own words (task-space and process signals), the
+//! process loads it suffers, and the figures a run of it is judged by.
+
+mod whitworth;
+
+use crate::mechanism::Mechanism;
+use crate::physics::{Load, MechanismState};
+use thiserror::Error;
+
+#[derive(Debug, Error, Clone, PartialEq)]
+pub enum MachineError {
+    #[error("unknown machine `{name}` (known: {known})")]
+    Unknown { name: String, known: String },
+    #[error("machine `{machine}`: the URDF has no {what} `{name}`")]
+    MissingPart {
+        machine: String,
+        what: &'static str,
+        name: String,
+    },
+    #[error("machine `{machine}`: bad [process] parameters: {reason}")]
+    BadParameters { machine: String, reason: String },
+}
+
+/// A machine built on a loaded mechanism.
+pub trait Machine {
+    /// Task-space and process signals, measured (through the sensors) by the controller, recorded.
+    fn signal_names(&self) -> Vec<String>;
+
+    /// Signals recorded for the engineer but not given to the controller (model checks).
+    fn diagnostic_names(&self) -> Vec<String> {
+        Vec::new()
+    }
+
+    /// Fills the true signal and diagnostic values for the state at `time`; called every step.
+    fn measure(
+        &mut self,
+        time: f64,
+        state: &MechanismState,
+        signals: &mut [f64],
+        diagnostics: &mut [f64],
+    );
+
+    /// Process loads (cutting, contact) acting during the coming step.
+    fn loads(&mut self, _time: f64, _state: &MechanismState, _loads: &mut Vec<Load>) {}
+
+    /// Figures of the run so far, by name.
+    fn metrics(&self) -> Vec<(String, f64)>;
+}
+
+/// Names of the machines the twin knows.
+pub const MACHINES: &[&str] = &["whitworth"];
+
+/// Builds the machine `name` on `mechanism` with the scenario's `[process]` table.
+pub fn build(
+    name: &str,
+    mechanism: &Mechanism,
+    process: &toml::Table,
+) -> Result<Box<dyn Machine>, MachineError> {
+    match name {
+        "whitworth" => Ok(Box::new(whitworth::Whitworth::new(mechanism, process)?)),
+        _ => Err(MachineError::Unknown {
+            name: name.to_string(),
+            known: MACHINES.join(", "),
+        }),
+    }
+}
+
+/// Index of a tree joint by name, or the error naming it.
+fn joint(machine: &str, mechanism: &Mechanism, name: &str) -> Result<usize, MachineError> {
+    mechanism
+        .joint_index(name)
+        .ok_or_else(|| MachineError::MissingPart {
+            machine: machine.into(),
+            what: "joint",
+            name: name.into(),
+        })
+}
+
+/// Index of a link by name, or the error naming it.
+fn link(machine: &str, mechanism: &Mechanism, name: &str) -> Result<usize, MachineError> {
+    mechanism
+        .link_index(name)
+        .ok_or_else(|| MachineError::MissingPart {
+            machine: machine.into(),
+            what: "link",
+            name: name.into(),
+        })
+}

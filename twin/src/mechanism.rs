@@ -1,0 +1,199 @@
+//! A planar mechanism as the twin understands it, independent of the physics engine and of the
+//! recording: links with mass and shapes, a joint tree and the joints that close its loops.
+
+/// A rigid transform in the plane: rotation by `angle` (rad, counter-clockwise) then translation.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Pose2 {
+    pub x: f64,
+    pub y: f64,
+    pub angle: f64,
+}
+
+impl Pose2 {
+    pub const IDENTITY: Pose2 = Pose2 {
+        x: 0.0,
+        y: 0.0,
+        angle: 0.0,
+    };
+
+    pub fn new(x: f64, y: f64, angle: f64) -> Self {
+        Self { x, y, angle }
+    }
+
+    /// `self ∘ other`: `other` expressed in the frame `self` maps to its parent.
+    pub fn compose(&self, other: &Pose2) -> Pose2 {
+        let [x, y] = self.apply(other.x, other.y);
+        Pose2 {
+            x,
+            y,
+            angle: self.angle + other.angle,
+        }
+    }
+
+    pub fn inverse(&self) -> Pose2 {
+        let (s, c) = self.angle.sin_cos();
+        Pose2 {
+            x: -(c * self.x + s * self.y),
+            y: -(-s * self.x + c * self.y),
+            angle: -self.angle,
+        }
+    }
+
+    /// Maps a point from this frame to its parent.
+    pub fn apply(&self, x: f64, y: f64) -> [f64; 2] {
+        let (s, c) = self.angle.sin_cos();
+        [self.x + c * x - s * y, self.y + s * x + c * y]
+    }
+
+    /// Rotates a direction from this frame to its parent.
+    pub fn rotate(&self, x: f64, y: f64) -> [f64; 2] {
+        let (s, c) = self.angle.sin_cos();
+        [c * x - s * y, s * x + c * y]
+    }
+}
+
+/// A drawable or collision outline in a link's frame.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Shape {
+    pub origin: Pose2,
+    pub outline: Outline,
+    /// RGBA in 0..1, from the URDF material when it has one.
+    pub color: Option<[f32; 4]>,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Outline {
+    /// A URDF box seen from above: full sizes along the shape's x and y.
+    Rectangle { width: f64, height: f64 },
+    /// A URDF cylinder (axis along z) or sphere.
+    Circle { radius: f64 },
+}
+
+/// Mass properties about the centre of mass, in the link's frame.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Inertial {
+    pub mass: f64,
+    pub centre_of_mass: [f64; 2],
+    /// Moment of inertia about z through the centre of mass, kg·m².
+    pub izz: f64,
+}
+
+#[derive(Debug, Clone, PartialEq)]
+pub struct Link {
+    pub name: String,
+    /// `None` only for the fixed root (the ground).
+    pub inertial: Option<Inertial>,
+    pub visuals: Vec<Shape>,
+    pub collisions: Vec<Shape>,
+}
+
+/// What a joint lets its child do relative to its parent.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum JointMotion {
+    /// Rotation about ±z. `sign` is +1 for axis +z, −1 for −z: the joint coordinate and its effort
+    /// are counted about the URDF's axis.
+    Revolute {
+        sign: f64,
+    },
+    /// Translation along a unit axis in the joint frame's xy plane.
+    Prismatic {
+        axis: [f64; 2],
+    },
+    Fixed,
+}
+
+impl JointMotion {
+    pub fn is_movable(&self) -> bool {
+        !matches!(self, JointMotion::Fixed)
+    }
+}
+
+/// A joint of the spanning tree.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Joint {
+    pub name: String,
+    pub motion: JointMotion,
+    /// Index into [`Mechanism::links`].
+    pub parent: usize,
+    pub child: usize,
+    /// The joint frame in the parent's frame; the child's frame coincides with it at zero coordinate.
+    pub origin: Pose2,
+    /// Coordinate limits `[lower, upper]` in the URDF's sense (rad or m), when the joint has them.
+    pub limits: Option<[f64; 2]>,
+    /// Largest |effort| (N·m or N); `Some` marks the joint as actuated.
+    pub effort_limit: Option<f64>,
+    /// Viscous damping, N·m·s/rad or N·s/m.
+    pub damping: f64,
+    /// Dry friction, N·m or N.
+    pub friction: f64,
+}
+
+/// A joint that closes a kinematic loop (the `<loop_joint>` extension).
+#[derive(Debug, Clone, PartialEq)]
+pub struct LoopJoint {
+    pub name: String,
+    /// Revolute (sign ignored) or prismatic; the axis is in `frame1`.
+    pub motion: JointMotion,
+    pub link1: usize,
+    pub link2: usize,
+    /// The joint frame in link1's frame and in link2's frame; they coincide in the assembled pose.
+    pub frame1: Pose2,
+    pub frame2: Pose2,
+}
+
+/// A planar mechanism: links in tree order (the root, the ground, first; every parent before its
+/// children), the tree's joints in the same order (joint `i` has child link `i + 1`) and the loop
+/// joints.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Mechanism {
+    pub name: String,
+    /// Where it came from (a file path or `<string>`), for error messages.
+    pub source: String,
+    pub links: Vec<Link>,
+    pub joints: Vec<Joint>,
+    pub loops: Vec<LoopJoint>,
+}
+
+impl Mechanism {
+    pub fn link_index(&self, name: &str) -> Option<usize> {
+        self.links.iter().position(|l| l.name == name)
+    }
+
+    pub fn joint_index(&self, name: &str) -> Option<usize> {
+        self.joints.iter().position(|j| j.name == name)
+    }
+
+    /// World pose of every link with all tree joints at zero coordinate (the URDF's pose).
+    pub fn zero_pose(&self) -> Vec<Pose2> {
+        let mut poses = vec![Pose2::IDENTITY; self.links.len()];
+        for joint in &self.joints {
+            poses[joint.child] = poses[joint.parent].compose(&joint.origin);
+        }
+        poses
+    }
+
+    /// Indices of the actuated joints (those with an effort limit), in tree order.
+    pub fn actuated_joints(&self) -> Vec<usize> {
+        (0..self.joints.len())
+            .filter(|&j| self.joints[j].effort_limit.is_some())
+            .collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn compose_and_inverse_round_trip() {
+        let a = Pose2::new(0.3, -0.2, 0.7);
+        let b = Pose2::new(-1.0, 0.5, -2.1);
+        let ab = a.compose(&b);
+        let back = a.inverse().compose(&ab);
+        assert!((back.x - b.x).abs() < 1e-15 && (back.y - b.y).abs() < 1e-15);
+        assert!((back.angle - b.angle).abs() < 1e-15);
+        let p = ab.apply(0.1, 0.2);
+        let q = a.apply(b.apply(0.1, 0.2)[0], b.apply(0.1, 0.2)[1]);
+        assert!((p[0] - q[0]).abs() < 1e-15 && (p[1] - q[1]).abs() < 1e-15);
+    }
+}

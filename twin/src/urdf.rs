@@ -1,0 +1,558 @@
+//! Planar URDF loader: URDF (plus the `<loop_joint>` extension) → [`Mechanism`].
+//!
+//! The standard elements are read by `urdf-rs`; `<loop_joint>` elements, which URDF has no place
+//! for, are read from the same text:
+//!
+//! ```xml
+//! <loop_joint name="slot" type="prismatic">   <!-- or "revolute" -->
+//!   <link1 link="slotted_link" xyz="0.4 0 0" rpy="0 0 0"/>  <!-- joint frame in link1 -->
+//!   <link2 link="block" xyz="0 0 0" rpy="0 0 0"/>           <!-- joint frame in link2 -->
+//!   <axis xyz="1 0 0"/>                                      <!-- prismatic: in the joint frame -->
+//! </loop_joint>
+//! ```
+//!
+//! The two frames must coincide (position, and for a prismatic joint also direction) in the pose
+//! the URDF describes, where every tree joint is at zero: the loader checks it.
+
+use crate::mechanism::{
+    Inertial, Joint, JointMotion, Link, LoopJoint, Mechanism, Outline, Pose2, Shape,
+};
+use std::collections::HashMap;
+use std::path::Path;
+use thiserror::Error;
+
+/// How far from planar a value may be before it is an error (m or rad).
+const PLANAR_TOLERANCE: f64 = 1e-9;
+/// Largest gap allowed between a loop joint's two frames in the URDF's pose, m (or rad).
+const LOOP_CLOSURE_TOLERANCE: f64 = 1e-6;
+
+/// Every defect found while loading a URDF, naming the file, the element and the reason.
+#[derive(Debug, Error, Clone, PartialEq)]
+pub enum UrdfError {
+    #[error("{file}: cannot read: {reason}")]
+    Read { file: String, reason: String },
+    #[error("{file}: malformed URDF: {reason}")]
+    Malformed { file: String, reason: String },
+    #[error("{file}: {element}: {reason}")]
+    Invalid {
+        file: String,
+        element: String,
+        reason: String,
+    },
+}
+
+/// Loads a URDF file.
+pub fn load_file(path: &Path) -> Result<Mechanism, UrdfError> {
+    let file = path.display().to_string();
+    let text = std::fs::read_to_string(path).map_err(|e| UrdfError::Read {
+        file: file.clone(),
+        reason: e.to_string(),
+    })?;
+    load_str(&text, &file)
+}
+
+/// Loads URDF text; `source` names it in errors.
+pub fn load_str(text: &str, source: &str) -> Result<Mechanism, UrdfError> {
+    let malformed = |reason: String| UrdfError::Malformed {
+        file: source.to_string(),
+        reason,
+    };
+    // Parse the raw XML first: its errors carry line numbers, urdf-rs's do not.
+    let document = roxmltree::Document::parse(text).map_err(|e| malformed(e.to_string()))?;
+    let robot = urdf_rs::read_from_string(text).map_err(|e| malformed(e.to_string()))?;
+    Loader { file: source }.build(&robot, &document)
+}
+
+struct Loader<'a> {
+    file: &'a str,
+}
+
+impl Loader<'_> {
+    fn invalid(&self, element: String, reason: impl Into<String>) -> UrdfError {
+        UrdfError::Invalid {
+            file: self.file.to_string(),
+            element,
+            reason: reason.into(),
+        }
+    }
+
+    fn build(
+        &self,
+        robot: &urdf_rs::Robot,
+        document: &roxmltree::Document,
+    ) -> Result<Mechanism, UrdfError> {
+        let order = self.tree_order(robot)?;
+        let position: HashMap<&str, usize> = order
+            .iter()
+            .enumerate()
+            .map(|(i, &link)| (robot.links[link].name.as_str(), i))
+            .collect();
+
+        let mut links = Vec::with_capacity(order.len());
+        for (i, &index) in order.iter().enumerate() {
+            links.push(self.link(&robot.links[index], i == 0)?);
+        }
+
+        let mut joints = Vec::with_capacity(order.len() - 1);
+        for &link in &order[1..] {
+            let name = &robot.links[link].name;
+            let joint = robot
+                .joints
+                .iter()
+                .find(|j| &j.child.link == name)
+                .expect("tree_order gives every non-root link a parent joint");
+            joints.push(self.joint(joint, &position)?);
+        }
+
+        let mut mechanism = Mechanism {
+            name: robot.name.clone(),
+            source: self.file.to_string(),
+            links,
+            joints,
+            loops: Vec::new(),
+        };
+        mechanism.loops = self.loop_joints(document, &mechanism)?;
+        Ok(mechanism)
+    }
+
+    /// Link indices (into `robot.links`) root first, each parent before its children; checks that
+    /// the joints form one tree.
+    fn tree_order(&self, robot: &urdf_rs::Robot) -> Result<Vec<usize>, UrdfError> {
+        if robot.links.is_empty() {
+            return Err(self.invalid(format!("robot \"{}\"", robot.name), "has no links"));
+        }
+        let mut index = HashMap::new();
+        for (i, link) in robot.links.iter().enumerate() {
+            if index.insert(link.name.as_str(), i).is_some() {
+                return Err(self.invalid(format!("link \"{}\"", link.name), "defined twice"));
+            }
+        }
+        let mut parent_of = vec![None; robot.links.len()];
+        let mut seen_joints = HashMap::new();
+        for joint in &robot.joints {
+            let element = format!("joint \"{}\"", joint.name);
+            if seen_joints.insert(joint.name.as_str(), ()).is_some() {
+                return Err(self.invalid(element, "defined twice"));
+            }
+            let parent = *index.get(joint.parent.link.as_str()).ok_or_else(|| {
+                self.invalid(
+                    element.clone(),
+                    format!("unknown parent link \"{}\"", joint.parent.link),
+                )
+            })?;
+            let child = *index.get(joint.child.link.as_str()).ok_or_else(|| {
+                self.invalid(
+                    element.clone(),
+                    format!("unknown child link \"{}\"", joint.child.link),
+                )
+            })?;
+            if parent == child {
+                return Err(self.invalid(element, "parent and child are the same link"));
+            }
+            if parent_of[child].replace(parent).is_some() {
+                return Err(self.invalid(
+                    element,
+                    format!(
+                        "link \"{}\" already has a parent joint (a URDF is a tree: close loops with <loop_joint>)",
+                        joint.child.link
+                    ),
+                ));
+            }
+        }
+        let roots: Vec<usize> = (0..robot.links.len())
+            .filter(|&i| parent_of[i].is_none())
+            .collect();
+        let root = match roots.as_slice() {
+            [root] => *root,
+            [] => {
+                return Err(self.invalid(
+                    format!("robot \"{}\"", robot.name),
+                    "the joints form a cycle: no link is free of a parent",
+                ))
+            }
+            many => {
+                let names: Vec<&str> = many.iter().map(|&i| robot.links[i].name.as_str()).collect();
+                return Err(self.invalid(
+                    format!("robot \"{}\"", robot.name),
+                    format!("more than one root link: {}", names.join(", ")),
+                ));
+            }
+        };
+        let mut order = vec![root];
+        let mut next = 0;
+        while next < order.len() {
+            let parent = order[next];
+            order.extend((0..robot.links.len()).filter(|&c| parent_of[c] == Some(parent)));
+            next += 1;
+        }
+        if order.len() != robot.links.len() {
+            let stray = (0..robot.links.len())
+                .find(|i| !order.contains(i))
+                .map(|i| robot.links[i].name.clone())
+                .unwrap_or_default();
+            return Err(self.invalid(
+                format!("link \"{stray}\""),
+                "is on a cycle of joints, not reachable from the root",
+            ));
+        }
+        Ok(order)
+    }
+
+    fn link(&self, link: &urdf_rs::Link, is_root: bool) -> Result<Link, UrdfError> {
+        let element = format!("link \"{}\"", link.name);
+        let inertial = if is_root {
+            None
+        } else {
+            let i = &link.inertial;
+            let at = format!("{element} <inertial>");
+            if !(i.mass.value.is_finite() && i.mass.value > 0.0) {
+                return Err(self.invalid(
+                    at,
+                    format!(
+                        "a moving link needs a positive mass (missing <inertial> or mass = {})",
+                        i.mass.value
+                    ),
+                ));
+            }
+            if !(i.inertia.izz.is_finite() && i.inertia.izz > 0.0) {
+                return Err(self.invalid(at, format!("izz must be > 0, got {}", i.inertia.izz)));
+            }
+            let origin = self.planar_pose(&i.origin, &at)?;
+            Some(Inertial {
+                mass: i.mass.value,
+                centre_of_mass: [origin.x, origin.y],
+                izz: i.inertia.izz,
+            })
+        };
+        let visuals = link
+            .visual
+            .iter()
+            .map(|v| {
+                let color = v.material.as_ref().and_then(|m| m.color.as_ref()).map(|c| {
+                    let [r, g, b, a] = c.rgba.0;
+                    [r as f32, g as f32, b as f32, a as f32]
+                });
+                self.shape(
+                    &v.origin,
+                    &v.geometry,
+                    color,
+                    &format!("{element} <visual>"),
+                )
+            })
+            .collect::<Result<_, _>>()?;
+        let collisions = link
+            .collision
+            .iter()
+            .map(|c| {
+                self.shape(
+                    &c.origin,
+                    &c.geometry,
+                    None,
+                    &format!("{element} <collision>"),
+                )
+            })
+            .collect::<Result<_, _>>()?;
+        Ok(Link {
+            name: link.name.clone(),
+            inertial,
+            visuals,
+            collisions,
+        })
+    }
+
+    fn shape(
+        &self,
+        origin: &urdf_rs::Pose,
+        geometry: &urdf_rs::Geometry,
+        color: Option<[f32; 4]>,
+        element: &str,
+    ) -> Result<Shape, UrdfError> {
+        let origin = self.planar_pose(origin, element)?;
+        let positive = |name: &str, value: f64| {
+            if value > 0.0 && value.is_finite() {
+                Ok(value)
+            } else {
+                Err(self.invalid(
+                    element.to_string(),
+                    format!("{name} must be > 0, got {value}"),
+                ))
+            }
+        };
+        let outline = match geometry {
+            urdf_rs::Geometry::Box { size } => Outline::Rectangle {
+                width: positive("box size x", size.0[0])?,
+                height: positive("box size y", size.0[1])?,
+            },
+            urdf_rs::Geometry::Cylinder { radius, .. } | urdf_rs::Geometry::Sphere { radius } => {
+                Outline::Circle {
+                    radius: positive("radius", *radius)?,
+                }
+            }
+            other => {
+                return Err(self.invalid(
+                    element.to_string(),
+                    format!("unsupported geometry {other:?} (box, cylinder and sphere are planar)"),
+                ))
+            }
+        };
+        Ok(Shape {
+            origin,
+            outline,
+            color,
+        })
+    }
+
+    /// A URDF pose that must lie in the xy plane.
+    fn planar_pose(&self, pose: &urdf_rs::Pose, element: &str) -> Result<Pose2, UrdfError> {
+        let [x, y, z] = pose.xyz.0;
+        let [roll, pitch, yaw] = pose.rpy.0;
+        for (name, value) in [("z offset", z), ("roll", roll), ("pitch", pitch)] {
+            if value.abs() > PLANAR_TOLERANCE {
+                return Err(self.invalid(
+                    element.to_string(),
+                    format!("not planar: {name} is {value} (must be 0)"),
+                ));
+            }
+        }
+        for value in [x, y, yaw] {
+            if !value.is_finite() {
+                return Err(self.invalid(element.to_string(), "origin is not finite"));
+            }
+        }
+        Ok(Pose2::new(x, y, yaw))
+    }
+
+    fn joint(
+        &self,
+        joint: &urdf_rs::Joint,
+        position: &HashMap<&str, usize>,
+    ) -> Result<Joint, UrdfError> {
+        let element = format!("joint \"{}\"", joint.name);
+        let origin = self.planar_pose(&joint.origin, &format!("{element} <origin>"))?;
+        let axis = self.unit_axis(joint.axis.xyz.0, &element)?;
+        let limit = &joint.limit;
+        let (motion, limits) = match &joint.joint_type {
+            urdf_rs::JointType::Revolute | urdf_rs::JointType::Continuous => {
+                let sign = self.z_axis_sign(axis, &element)?;
+                let bounded = joint.joint_type == urdf_rs::JointType::Revolute;
+                (JointMotion::Revolute { sign }, bounded.then_some([limit.lower, limit.upper]))
+            }
+            urdf_rs::JointType::Prismatic => {
+                if axis[2].abs() > PLANAR_TOLERANCE {
+                    return Err(self.invalid(
+                        format!("{element} <axis>"),
+                        format!("not planar: a prismatic axis must lie in the xy plane, its z part is {}", axis[2]),
+                    ));
+                }
+                (
+                    JointMotion::Prismatic {
+                        axis: [axis[0], axis[1]],
+                    },
+                    Some([limit.lower, limit.upper]),
+                )
+            }
+            urdf_rs::JointType::Fixed => (JointMotion::Fixed, None),
+            other => {
+                return Err(self.invalid(
+                    element,
+                    format!("unsupported joint type {other:?} (revolute, continuous, prismatic and fixed are)"),
+                ))
+            }
+        };
+        // URDF 1.0 reads a missing or infinite range as lower = upper; treat that as unlimited.
+        let limits = limits.filter(|[lower, upper]| lower < upper && lower.is_finite());
+        let effort_limit = (motion.is_movable() && limit.effort > 0.0).then_some(limit.effort);
+        let (damping, friction) = joint
+            .dynamics
+            .as_ref()
+            .map_or((0.0, 0.0), |d| (d.damping, d.friction));
+        for (name, value) in [("damping", damping), ("friction", friction)] {
+            if !(value.is_finite() && value >= 0.0) {
+                return Err(self.invalid(
+                    format!("{element} <dynamics>"),
+                    format!("{name} must be ≥ 0, got {value}"),
+                ));
+            }
+        }
+        Ok(Joint {
+            name: joint.name.clone(),
+            motion,
+            parent: position[joint.parent.link.as_str()],
+            child: position[joint.child.link.as_str()],
+            origin,
+            limits,
+            effort_limit,
+            damping,
+            friction,
+        })
+    }
+
+    fn unit_axis(&self, axis: [f64; 3], element: &str) -> Result<[f64; 3], UrdfError> {
+        let norm = (axis[0] * axis[0] + axis[1] * axis[1] + axis[2] * axis[2]).sqrt();
+        if !(norm.is_finite() && norm > 0.0) {
+            return Err(self.invalid(format!("{element} <axis>"), "axis has zero length"));
+        }
+        Ok([axis[0] / norm, axis[1] / norm, axis[2] / norm])
+    }
+
+    fn z_axis_sign(&self, axis: [f64; 3], element: &str) -> Result<f64, UrdfError> {
+        if (axis[2].abs() - 1.0).abs() > PLANAR_TOLERANCE {
+            return Err(self.invalid(
+                format!("{element} <axis>"),
+                format!(
+                    "not planar: a revolute axis must be ±z, got ({}, {}, {})",
+                    axis[0], axis[1], axis[2]
+                ),
+            ));
+        }
+        Ok(axis[2].signum())
+    }
+
+    fn loop_joints(
+        &self,
+        document: &roxmltree::Document,
+        mechanism: &Mechanism,
+    ) -> Result<Vec<LoopJoint>, UrdfError> {
+        let zero_pose = mechanism.zero_pose();
+        let mut loops = Vec::new();
+        for node in document
+            .root_element()
+            .children()
+            .filter(|n| n.has_tag_name("loop_joint"))
+        {
+            let name = node.attribute("name").unwrap_or("").to_string();
+            let element = format!("loop_joint \"{name}\"");
+            if name.is_empty() {
+                return Err(self.invalid(element, "needs a name"));
+            }
+            if loops.iter().any(|l: &LoopJoint| l.name == name)
+                || mechanism.joint_index(&name).is_some()
+            {
+                return Err(self.invalid(element, "name already used by another joint"));
+            }
+            let (link1, frame1) = self.loop_end(&node, "link1", &element, mechanism)?;
+            let (link2, frame2) = self.loop_end(&node, "link2", &element, mechanism)?;
+            if link1 == link2 {
+                return Err(self.invalid(element, "link1 and link2 are the same link"));
+            }
+            let motion = match node.attribute("type") {
+                Some("revolute") | Some("continuous") => JointMotion::Revolute { sign: 1.0 },
+                Some("prismatic") => {
+                    let axis = node
+                        .children()
+                        .find(|n| n.has_tag_name("axis"))
+                        .ok_or_else(|| {
+                            self.invalid(element.clone(), "a prismatic loop joint needs <axis xyz>")
+                        })?;
+                    let xyz = self.triple(&axis, "xyz", &format!("{element} <axis>"))?;
+                    let unit = self.unit_axis(xyz, &element)?;
+                    if unit[2].abs() > PLANAR_TOLERANCE {
+                        return Err(self.invalid(
+                            format!("{element} <axis>"),
+                            format!("not planar: z part is {}", unit[2]),
+                        ));
+                    }
+                    JointMotion::Prismatic {
+                        axis: [unit[0], unit[1]],
+                    }
+                }
+                other => {
+                    return Err(self.invalid(
+                        element,
+                        format!(
+                            "unsupported type {:?} (revolute or prismatic)",
+                            other.unwrap_or("<missing>")
+                        ),
+                    ))
+                }
+            };
+            let loop_joint = LoopJoint {
+                name,
+                motion,
+                link1,
+                link2,
+                frame1,
+                frame2,
+            };
+            self.check_closure(&loop_joint, &zero_pose, &element)?;
+            loops.push(loop_joint);
+        }
+        Ok(loops)
+    }
+
+    fn loop_end(
+        &self,
+        node: &roxmltree::Node,
+        tag: &str,
+        element: &str,
+        mechanism: &Mechanism,
+    ) -> Result<(usize, Pose2), UrdfError> {
+        let at = format!("{element} <{tag}>");
+        let end = node
+            .children()
+            .find(|n| n.has_tag_name(tag))
+            .ok_or_else(|| self.invalid(element.to_string(), format!("missing <{tag} link=…>")))?;
+        let link_name = end.attribute("link").unwrap_or("");
+        let link = mechanism
+            .link_index(link_name)
+            .ok_or_else(|| self.invalid(at.clone(), format!("unknown link \"{link_name}\"")))?;
+        let xyz = self.triple(&end, "xyz", &at)?;
+        let rpy = self.triple(&end, "rpy", &at)?;
+        let pose = urdf_rs::Pose {
+            xyz: urdf_rs::Vec3(xyz),
+            rpy: urdf_rs::Vec3(rpy),
+        };
+        Ok((link, self.planar_pose(&pose, &at)?))
+    }
+
+    /// Three numbers from an attribute; a missing attribute reads as zeros, as in URDF.
+    fn triple(&self, node: &roxmltree::Node, name: &str, at: &str) -> Result<[f64; 3], UrdfError> {
+        let Some(text) = node.attribute(name) else {
+            return Ok([0.0; 3]);
+        };
+        let values: Vec<f64> = text
+            .split_whitespace()
+            .map(str::parse)
+            .collect::<Result<_, _>>()
+            .map_err(|_| {
+                self.invalid(
+                    at.to_string(),
+                    format!("{name}=\"{text}\" is not three numbers"),
+                )
+            })?;
+        <[f64; 3]>::try_from(values).map_err(|_| {
+            self.invalid(
+                at.to_string(),
+                format!("{name}=\"{text}\" is not three numbers"),
+            )
+        })
+    }
+
+    fn check_closure(
+        &self,
+        joint: &LoopJoint,
+        zero_pose: &[Pose2],
+        element: &str,
+    ) -> Result<(), UrdfError> {
+        let world1 = zero_pose[joint.link1].compose(&joint.frame1);
+        let world2 = zero_pose[joint.link2].compose(&joint.frame2);
+        let gap = [world2.x - world1.x, world2.y - world1.y];
+        let (off_axis, twist) = match joint.motion {
+            JointMotion::Prismatic { axis } => {
+                let [ax, ay] = world1.rotate(axis[0], axis[1]);
+                let twist = (world2.angle - world1.angle).sin().abs();
+                ((gap[1] * ax - gap[0] * ay).abs(), twist)
+            }
+            _ => (gap[0].hypot(gap[1]), 0.0),
+        };
+        if off_axis > LOOP_CLOSURE_TOLERANCE || twist > LOOP_CLOSURE_TOLERANCE {
+            return Err(self.invalid(
+                element.to_string(),
+                format!(
+                    "does not close in the URDF's pose: frames {off_axis:.3e} m apart, {twist:.3e} rad twisted (tolerance {LOOP_CLOSURE_TOLERANCE:e})"
+                ),
+            ));
+        }
+        Ok(())
+    }
+}
