@@ -67,16 +67,33 @@ impl Registry {
 }
 
 /// Reads a controller's parameter struct from its table; unknown keys and wrong types are errors
-/// that name the controller.
+/// that name the controller and the offending entry.
 pub fn parse_params<P: DeserializeOwned>(
     controller: &str,
     params: &toml::Table,
 ) -> Result<P, ControllerError> {
-    params
-        .clone()
-        .try_into()
-        .map_err(|e: toml::de::Error| ControllerError::BadParameters {
-            controller: controller.to_string(),
-            reason: e.message().to_string(),
-        })
+    from_table(params).map_err(|reason| ControllerError::BadParameters {
+        controller: controller.to_string(),
+        reason,
+    })
+}
+
+/// Deserialises a table, with a one-line message that quotes the offending `key = value` line.
+pub fn from_table<P: DeserializeOwned>(table: &toml::Table) -> Result<P, String> {
+    // Through text, so that the error carries a span naming the entry.
+    let text = toml::to_string(table).map_err(|e| e.to_string())?;
+    toml::from_str(&text).map_err(|e| describe_toml_error(&text, &e))
+}
+
+/// A TOML error on one line: where it is (`line N: <that line>`) and what is wrong.
+pub fn describe_toml_error(text: &str, error: &toml::de::Error) -> String {
+    let message = error.message().trim().replace('\n', " ");
+    match error.span() {
+        Some(span) if span.start < text.len() => {
+            let line_number = text[..span.start].matches('\n').count() + 1;
+            let line = text.lines().nth(line_number - 1).unwrap_or("").trim();
+            format!("line {line_number} (`{line}`): {message}")
+        }
+        _ => message,
+    }
 }

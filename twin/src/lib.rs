@@ -8,6 +8,7 @@ pub mod machines;
 pub mod mechanism;
 pub mod physics;
 pub mod recording;
+pub mod reproduce;
 pub mod run;
 pub mod scenario;
 pub mod sensors;

@@ -5,7 +5,7 @@ use controllers::Registry;
 use std::path::PathBuf;
 use std::process::ExitCode;
 use twin::scenario::{self, Overrides};
-use twin::{summary, Twin};
+use twin::{reproduce, summary, Twin};
 
 #[derive(Parser)]
 #[command(
@@ -26,6 +26,17 @@ enum Command {
     Run(RunArgs),
     /// Measure steps/s of a scenario with and without recording, and peak memory.
     Bench(BenchArgs),
+    /// Run a seed paper's scenarios and put its claims next to the twin's figures.
+    Reproduce(ReproduceArgs),
+}
+
+#[derive(clap::Args)]
+struct ReproduceArgs {
+    /// The paper (see `twin list`).
+    paper: String,
+    /// Folder for the recordings and report.json.
+    #[arg(long, default_value = "reproduce")]
+    out_dir: PathBuf,
 }
 
 #[derive(clap::Args)]
@@ -39,7 +50,7 @@ struct RunArgs {
     #[arg(long = "set", value_name = "KEY=VALUE")]
     set: Vec<String>,
     /// Simulated time, s.
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     duration: Option<f64>,
     /// Recording to write (default: <scenario>.rrd in the current folder).
     #[arg(long)]
@@ -69,6 +80,7 @@ fn main() -> ExitCode {
         }
         Command::Run(args) => run(args, &registry),
         Command::Bench(args) => bench(args, &registry),
+        Command::Reproduce(args) => reproduce(args, &registry),
     };
     outcome.unwrap_or_else(|message| {
         eprintln!("error: {message}");
@@ -89,6 +101,10 @@ fn list(registry: &Registry) {
             })
             .unwrap_or_default();
         println!("  {name:<28} {description}");
+    }
+    println!("papers (twin reproduce):");
+    for paper in reproduce::PAPERS {
+        println!("  {:<28} {}", paper.name, paper.summary);
     }
     println!("controllers:");
     for entry in registry.entries() {
@@ -167,6 +183,14 @@ fn bench(args: BenchArgs, registry: &Registry) -> Result<ExitCode, String> {
     if let Some(peak) = peak_memory_mb() {
         println!("peak memory (VmHWM): {peak:.1} MB");
     }
+    Ok(ExitCode::SUCCESS)
+}
+
+fn reproduce(args: ReproduceArgs, registry: &Registry) -> Result<ExitCode, String> {
+    let report =
+        reproduce::reproduce(&args.paper, &args.out_dir, registry).map_err(|e| e.to_string())?;
+    print!("{}", reproduce::to_table(&report));
+    println!("recordings and report.json: {}", args.out_dir.display());
     Ok(ExitCode::SUCCESS)
 }
 

@@ -57,14 +57,6 @@ impl Physics {
         world.gravity = Vector::new(settings.gravity[0], settings.gravity[1]);
         world.integration_parameters.dt = settings.dt;
         world.integration_parameters.num_solver_iterations = settings.iterations.max(1);
-        if let Ok(v) = std::env::var("PGS") {
-            world.integration_parameters.num_internal_pgs_iterations = v.parse().unwrap();
-        }
-        if let Ok(v) = std::env::var("STAB") {
-            world
-                .integration_parameters
-                .num_internal_stabilization_iterations = v.parse().unwrap();
-        }
 
         let poses = mechanism.zero_pose();
         let bodies: Vec<RigidBodyHandle> = mechanism

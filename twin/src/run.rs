@@ -70,6 +70,8 @@ pub struct RunSummary {
     pub steps_per_s: f64,
     pub metrics: Vec<(String, f64)>,
     pub failure: Option<Divergence>,
+    /// FNV-1a digest of every recorded sample's bits: equal digests, identical series.
+    pub series_digest: u64,
 }
 
 impl RunSummary {
@@ -257,6 +259,7 @@ impl Twin {
         let mut diagnostics = vec![0.0; diagnostic_names.len()];
         let mut internals = vec![0.0; internal_names.len()];
         let mut commanded = vec![0.0; self.actuated.len()];
+        let mut limited = vec![0.0; self.actuated.len()];
         let mut applied = vec![0.0; self.actuated.len()];
         let mut saturated = vec![false; self.actuated.len()];
         let mut joint_efforts = vec![0.0; self.mechanism.joints.len()];
@@ -266,6 +269,7 @@ impl Twin {
         let mut noise = Noise::new(scenario.seed);
         let mut stats = RunStats::new(self.actuated.len());
         let mut failure = None;
+        let mut digest = Digest::default();
 
         let started = Instant::now();
         let mut step = 0;
@@ -327,13 +331,13 @@ impl Twin {
                         });
                         continue;
                     }
-                    applied[a] = commanded[a].clamp(-actuator.effort_limit, actuator.effort_limit);
-                    let now_saturated = applied[a] != commanded[a];
+                    limited[a] = commanded[a].clamp(-actuator.effort_limit, actuator.effort_limit);
+                    let now_saturated = limited[a] != commanded[a];
                     if now_saturated != saturated[a] {
                         events.push(if now_saturated {
                             format!(
                                 "{} effort saturated at {:+} (commanded {:+.3})",
-                                actuator.joint, applied[a], commanded[a]
+                                actuator.joint, limited[a], commanded[a]
                             )
                         } else {
                             format!("{} effort back within its limit", actuator.joint)
@@ -342,6 +346,7 @@ impl Twin {
                     }
                 }
             }
+            self.machine.drive(dt, &limited, &mut applied);
             stats.observe(&applied, &saturated, &state, energy[0] - energy_start);
 
             if let Some(recorder) = recorder.as_mut() {
@@ -373,6 +378,15 @@ impl Twin {
             } else {
                 events.clear();
             }
+            if step % scenario.recording.every == 0 || failure.is_some() {
+                digest.add(time);
+                digest.add_all(&true_signals);
+                digest.add_all(&measured);
+                digest.add_all(&commanded);
+                digest.add_all(&applied);
+                digest.add_all(&internals);
+                digest.add_all(&diagnostics);
+            }
             if failure.is_some() || step == steps {
                 break;
             }
@@ -403,6 +417,7 @@ impl Twin {
             steps_per_s: step as f64 / wall_s.max(1e-12),
             metrics,
             failure,
+            series_digest: digest.0,
         })
     }
 
@@ -442,6 +457,29 @@ impl Twin {
             }
         }
         None
+    }
+}
+
+/// 64-bit FNV-1a over the bit patterns of f64 values.
+struct Digest(u64);
+
+impl Default for Digest {
+    fn default() -> Self {
+        Self(0xcbf2_9ce4_8422_2325)
+    }
+}
+
+impl Digest {
+    fn add(&mut self, value: f64) {
+        for byte in value.to_bits().to_le_bytes() {
+            self.0 = (self.0 ^ u64::from(byte)).wrapping_mul(0x0100_0000_01b3);
+        }
+    }
+
+    fn add_all(&mut self, values: &[f64]) {
+        for &value in values {
+            self.add(value);
+        }
     }
 }
 

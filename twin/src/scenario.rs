@@ -2,6 +2,7 @@
 //! reference, process parameters, sensors, timing and recording options.
 
 use crate::sensors::SensorSpec;
+use controllers::registry::{describe_toml_error, from_table};
 use models::reference::Reference;
 use serde::Deserialize;
 use std::collections::BTreeMap;
@@ -9,10 +10,20 @@ use std::path::{Path, PathBuf};
 use thiserror::Error;
 
 /// The scenarios shipped with the twin: (name, TOML).
-pub const BUILTIN: &[(&str, &str)] = &[(
-    "whitworth-crank-pi",
-    include_str!("../scenarios/whitworth-crank-pi.toml"),
-)];
+pub const BUILTIN: &[(&str, &str)] = &[
+    (
+        "whitworth-crank-pi",
+        include_str!("../scenarios/whitworth-crank-pi.toml"),
+    ),
+    (
+        "whitworth-tracking",
+        include_str!("../scenarios/whitworth-tracking.toml"),
+    ),
+    (
+        "whitworth-cutting",
+        include_str!("../scenarios/whitworth-cutting.toml"),
+    ),
+];
 
 /// The URDF files shipped with the twin, by the path scenarios name them with.
 const BUILTIN_URDF: &[(&str, &str)] = &[(
@@ -230,9 +241,8 @@ pub fn load(name_or_path: &str, overrides: &Overrides) -> Result<LoadedScenario,
         file: source.clone(),
         reason,
     };
-    let mut table: toml::Table = text
-        .parse()
-        .map_err(|e: toml::de::Error| invalid(e.to_string()))?;
+    let mut table: toml::Table = toml::from_str(&text)
+        .map_err(|e: toml::de::Error| invalid(describe_toml_error(&text, &e)))?;
     let changed = overrides != &Overrides::default();
     if let Some(name) = &overrides.controller {
         let mut controller = toml::Table::new();
@@ -250,9 +260,7 @@ pub fn load(name_or_path: &str, overrides: &Overrides) -> Result<LoadedScenario,
     } else {
         toml::to_string(&table).map_err(|e| invalid(e.to_string()))?
     };
-    let scenario: Scenario = table
-        .try_into()
-        .map_err(|e: toml::de::Error| invalid(e.message().to_string()))?;
+    let scenario: Scenario = from_table(&table).map_err(invalid)?;
     scenario.validate().map_err(invalid)?;
     let (urdf_text, urdf_source) = find_urdf(&scenario.urdf, folder.as_deref())
         .ok_or_else(|| invalid(format!("urdf `{}` not found", scenario.urdf)))?;

@@ -6,7 +6,8 @@ use std::fmt::Write as _;
 use std::path::Path;
 
 /// The summary as JSON: `scenario`, `controller`, `dt`, `steps`, `wall_s`, `steps_per_s`,
-/// `metrics` (named numbers), `status` (`ok` or `failed`) and `failure` (the reason, or null).
+/// `metrics` (named numbers), `status` (`ok` or `failed`), `failure` (the reason, or null) and
+/// `series_digest` (equal digests: bit-identical recorded series).
 pub fn to_json(summary: &RunSummary) -> Value {
     let metrics: Map<String, Value> = summary
         .metrics
@@ -23,6 +24,7 @@ pub fn to_json(summary: &RunSummary) -> Value {
         "metrics": metrics,
         "status": if summary.failure.is_some() { "failed" } else { "ok" },
         "failure": summary.failure.as_ref().map(|f| f.to_string()),
+        "series_digest": format!("{:016x}", summary.series_digest),
     })
 }
 

@@ -121,3 +121,52 @@ pub(crate) fn entry() -> Entry {
         build: |table| Ok(Box::new(build(parse_params("ffc", table)?)?)),
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::super::test_plant::Plant;
+    use super::*;
+    use crate::{Controller, Registry};
+    use models::reference::Reference;
+
+    #[test]
+    fn gain_realises_eq_38() {
+        let ffc = build(FfcParams::default()).unwrap();
+        let m = ffc.design().slider.nominal_mass();
+        let [kp, kd] = ffc.law().gain();
+        assert!((kp - m * 1000.0).abs() < 1e-6 * kp);
+        assert!((kd - m * 2.0 * 1000f64.sqrt()).abs() < 1e-6 * kd);
+    }
+
+    #[test]
+    fn bad_specifications_are_rejected() {
+        for table in ["natural_frequency = 0.0", "damping_ratio = -1.0"] {
+            let err = Registry::builtin()
+                .build("ffc", &table.parse::<toml::Table>().unwrap())
+                .err()
+                .unwrap();
+            assert!(err.to_string().contains("ω_n > 0 and ξ ≥ 0"), "{err}");
+        }
+    }
+
+    #[test]
+    fn tracks_a_slow_sine_in_closed_loop() {
+        let mut plant = Plant::twin();
+        plant.reference = Some(Reference::Sine {
+            offset: -0.2,
+            amplitude: -0.1,
+            angular_frequency: 2.0,
+            phase: 0.0,
+        });
+        let mut ffc = build(FfcParams::default()).unwrap();
+        ffc.reset(&plant.interface()).unwrap();
+        let samples = plant.run(&mut ffc, 2.0, 1e-3);
+        let last = samples.last().unwrap();
+        let r = plant.reference.unwrap().sample(last.time).position;
+        assert!(
+            (r - last.ram_position).abs() < 5e-3,
+            "error {}",
+            r - last.ram_position
+        );
+    }
+}

@@ -77,3 +77,55 @@ pub(crate) fn entry() -> Entry {
         build: |table| Ok(Box::new(build(parse_params("lqt", table)?)?)),
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::super::test_plant::Plant;
+    use super::*;
+    use crate::{Controller, Registry};
+    use models::reference::Reference;
+
+    #[test]
+    fn gain_is_the_regulator_of_eq_39() {
+        let lqt = build(LqtParams::default()).unwrap();
+        let m = lqt.design().slider.nominal_mass();
+        let [kp, kd] = lqt.law().gain();
+        // K = m̄·[√(q₁/r), √(q₂/r + 2√(q₁/r))] with q₁ = 1000, q₂ = 1, r = 10⁻³.
+        assert!((kp - m * 1000.0).abs() < 1e-6 * kp, "{kp}");
+        assert!((kd - m * 3000f64.sqrt()).abs() < 1e-6 * kd, "{kd}");
+    }
+
+    #[test]
+    fn bad_weights_are_rejected() {
+        for (table, key) in [
+            ("input_weight = 0.0", "input_weight"),
+            (
+                "weights = { position = -1.0, velocity = 1.0 }",
+                "weights.position",
+            ),
+        ] {
+            let err = Registry::builtin()
+                .build("lqt", &table.parse::<toml::Table>().unwrap())
+                .err()
+                .unwrap();
+            assert!(err.to_string().contains(key), "{err}");
+        }
+    }
+
+    #[test]
+    fn holds_a_constant_reference() {
+        let mut plant = Plant::twin();
+        plant.reference = Some(Reference::Constant { value: -0.2 });
+        let mut lqt = build(LqtParams::default()).unwrap();
+        lqt.reset(&plant.interface()).unwrap();
+        let samples = plant.run(&mut lqt, 1.5, 1e-3);
+        let last = samples.last().unwrap();
+        // The gravity feedforward leaves only the model's variation to the feedback.
+        assert!(
+            (last.ram_position + 0.2).abs() < 2e-3,
+            "y = {}",
+            last.ram_position
+        );
+        assert!(last.ram_velocity.abs() < 1e-3);
+    }
+}

@@ -212,3 +212,138 @@ pub(crate) fn entry() -> Entry {
         build: |table| Ok(Box::new(build(parse_params("osmc", table)?)?)),
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::super::test_plant::{cut_velocity_errors, Contact, Plant};
+    use super::*;
+    use crate::{Controller, Registry};
+    use models::reference::Reference;
+
+    fn build_with(table: &str) -> Result<Box<dyn Controller>, ControllerError> {
+        Registry::builtin().build("osmc", &table.parse::<toml::Table>().unwrap())
+    }
+
+    #[test]
+    fn design_errors_name_the_parameter() {
+        for (table, expected) in [
+            ("k1 = 0.0", "k1 must be > 0"),
+            ("k1 = -3.0", "k1 must be > 0"),
+            ("reaching_rate = 0.0", "reaching_rate must be > 0"),
+            ("k2 = -1.0", "k2 must be > 0"),
+            (
+                "weights = { position = 0.0, velocity = 1.0 }",
+                "sliding surface",
+            ),
+            (
+                "task = { workpiece_length = 0.6 }",
+                "shorter than the stroke",
+            ),
+            ("gain = 1.0", "gain"),
+        ] {
+            let err = build_with(table).err().unwrap();
+            assert!(err.to_string().contains(expected), "{table}: {err}");
+        }
+    }
+
+    #[test]
+    fn surface_is_the_optimal_hyperplane() {
+        let osmc = build(OsmcParams::default()).unwrap();
+        let m = osmc.design().slider.nominal_mass();
+        let c = osmc.law().gains().surface;
+        assert!((c[0] - m * 1000f64.sqrt()).abs() < 1e-9 * m);
+        assert!((c[1] - m).abs() < 1e-12 * m);
+    }
+
+    #[test]
+    fn sigma_starts_at_zero_and_k_x_integrates_its_sign() {
+        let gains = second_order_gains("osmc", [10.0, 1.0], 2.0, 3.0, 5.0).unwrap();
+        let mut law = SecondOrderSliding::new("OSMC", gains);
+        law.restart(1.0, [0.1, 0.0]);
+        let input = |time, error| LawInput {
+            time,
+            period: 0.01,
+            error,
+            reference: models::velocity_profile::ProfileSample {
+                position: 0.0,
+                velocity: 0.0,
+                acceleration: 0.0,
+            },
+            gravity: 0.0,
+            force_limit: f64::INFINITY,
+        };
+        assert_eq!(law.force(&input(1.0, [0.1, 0.0])), 0.0, "σ(t₀) = 0");
+        // Later, with the same error: σ = s·(1 − e^{−λΔt}) > 0 and k_x grows at unit rate.
+        let u = law.force(&input(1.2, [0.1, 0.0]));
+        let sigma = 1.0 * (1.0 - (-5.0f64 * 0.2).exp());
+        assert!((u - 2.0 * sigma).abs() < 1e-12, "u = {u}");
+        law.force(&input(1.21, [0.1, 0.0]));
+        let mut values = [0.0; 4];
+        law.internal_values(&mut values);
+        assert!((values[2] - 0.02).abs() < 1e-12, "k_x = {}", values[2]);
+        // Clipped and pushing outwards: k_x freezes.
+        let clipped = LawInput {
+            force_limit: 1e-3,
+            ..input(1.3, [0.1, 0.0])
+        };
+        law.force(&clipped);
+        law.internal_values(&mut values);
+        assert!((values[2] - 0.02).abs() < 1e-12);
+    }
+
+    #[test]
+    fn constant_cutting_velocity_under_the_contact_force() {
+        let mut plant = Plant::twin();
+        let contact = Contact {
+            force: 400.0,
+            y_a: -0.02907,
+            y_b: -0.32907,
+        };
+        plant.contact = Some(contact);
+        let mut osmc = build(OsmcParams::default()).unwrap();
+        osmc.reset(&plant.interface()).unwrap();
+        let samples = plant.run(&mut osmc, 2.5, 1e-3);
+        let cuts = cut_velocity_errors(&samples, -1.25, &contact);
+        assert!(cuts.len() >= 3, "{} cuts", cuts.len());
+        for (rms, max) in &cuts[1..cuts.len() - 1] {
+            assert!(*rms <= 0.02 * 1.25, "velocity error RMS {rms} m/s");
+            assert!(*max <= 0.05 * 1.25, "largest velocity error {max} m/s");
+        }
+        // Full turns, always clockwise after the start.
+        assert!(samples[100..].iter().all(|s| s.crank_speed < 0.0));
+        let mut events = Vec::new();
+        osmc.drain_events(&mut events);
+        assert!(
+            events
+                .iter()
+                .filter(|e| e.starts_with("return stroke part 1"))
+                .count()
+                >= 3
+        );
+    }
+
+    #[test]
+    fn tracks_the_sine_of_eq_35() {
+        let mut plant = Plant::twin();
+        plant.reference = Some(Reference::Sine {
+            offset: -0.2,
+            amplitude: -0.2,
+            angular_frequency: std::f64::consts::PI,
+            phase: 0.0,
+        });
+        let mut osmc = build(OsmcParams::default()).unwrap();
+        osmc.reset(&plant.interface()).unwrap();
+        let samples = plant.run(&mut osmc, 3.0, 1e-3);
+        let worst = samples[2000..]
+            .iter()
+            .map(|s| {
+                let r = plant.reference.unwrap().sample(s.time).position;
+                (r - s.ram_position).abs()
+            })
+            .fold(0.0, f64::max);
+        assert!(
+            worst < 1e-3,
+            "largest position error {worst} m in the last second"
+        );
+    }
+}

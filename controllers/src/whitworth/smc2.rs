@@ -85,3 +85,41 @@ pub(crate) fn entry() -> Entry {
         build: |table| Ok(Box::new(build(parse_params("smc2", table)?)?)),
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::super::test_plant::{cut_velocity_errors, Contact, Plant};
+    use super::*;
+    use crate::{Controller, Registry};
+
+    #[test]
+    fn surface_is_hand_set() {
+        let smc2 = build(Smc2Params::default()).unwrap();
+        let m = smc2.design().slider.nominal_mass();
+        assert_eq!(smc2.law().gains().surface, [m * 10.0, m]);
+        for table in ["surface_slope = 0.0", "k1 = 0.0", "reaching_rate = -2.0"] {
+            let err = Registry::builtin()
+                .build("smc2", &table.parse::<toml::Table>().unwrap())
+                .err()
+                .unwrap();
+            assert!(err.to_string().contains("must be > 0"), "{err}");
+        }
+    }
+
+    #[test]
+    fn cuts_through_the_singular_points() {
+        let mut plant = Plant::twin();
+        let contact = Contact {
+            force: 400.0,
+            y_a: -0.02907,
+            y_b: -0.32907,
+        };
+        plant.contact = Some(contact);
+        let mut smc2 = build(Smc2Params::default()).unwrap();
+        smc2.reset(&plant.interface()).unwrap();
+        let samples = plant.run(&mut smc2, 2.0, 1e-3);
+        assert!(cut_velocity_errors(&samples, -1.25, &contact).len() >= 2);
+        assert!(samples[100..].iter().all(|s| s.crank_speed < 0.0));
+        assert!(samples.iter().all(|s| s.torque.abs() <= 300.0));
+    }
+}

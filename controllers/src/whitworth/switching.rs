@@ -34,9 +34,9 @@ pub enum Mode {
     /// Cutting stroke: the task-space law, between the singular points.
     Cutting,
     /// Return stroke, part 1: open-loop drive torque.
-    ReturnDrive,
+    ReturnPart1,
     /// Return stroke, part 2 (from mid-stroke): open-loop hold-back torque.
-    ReturnHold,
+    ReturnPart2,
 }
 
 impl Mode {
@@ -45,8 +45,8 @@ impl Mode {
         match self {
             Mode::Tracking => 0.0,
             Mode::Cutting => 1.0,
-            Mode::ReturnDrive => 2.0,
-            Mode::ReturnHold => 3.0,
+            Mode::ReturnPart1 => 2.0,
+            Mode::ReturnPart2 => 3.0,
         }
     }
 }
@@ -58,9 +58,9 @@ pub const SPEED_DEAD_BAND: f64 = 0.01;
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ReturnPlan {
     /// Part-1 torque, N·m, signed in the joint's convention (negative turns the crank clockwise).
-    pub drive_torque: f64,
+    pub part1_torque: f64,
     /// Part-2 torque, N·m, signed likewise.
-    pub hold_torque: f64,
+    pub part2_torque: f64,
     /// Mid-stroke ram height where part 2 starts, m.
     pub mid_stroke: f64,
     /// Crank speed the last blend leaves at the bottom singular point, rad/s (signed).
@@ -108,11 +108,11 @@ impl ReturnPlan {
         }
         let energy_change =
             dynamics.energy(q_top, top_speed) - dynamics.energy(q_bottom, bottom_speed);
-        let drive_torque = -drive;
-        let hold_torque = (energy_change - drive_torque * (q_mid - q_bottom)) / (q_top - q_mid);
+        let part1_torque = -drive;
+        let part2_torque = (energy_change - part1_torque * (q_mid - q_bottom)) / (q_top - q_mid);
         Ok(Self {
-            drive_torque,
-            hold_torque,
+            part1_torque,
+            part2_torque,
             mid_stroke,
             bottom_speed,
             top_speed,
@@ -181,10 +181,10 @@ impl StrokeSwitch {
             None if slider.in_cutting_stroke(q) => Mode::Cutting,
             None => Self::return_part(past_mid),
             Some(Mode::Cutting) if along_cut < -SPEED_DEAD_BAND && past_mid > 0.0 => {
-                Mode::ReturnDrive
+                Mode::ReturnPart1
             }
-            Some(Mode::ReturnDrive) if past_mid < 0.0 => Mode::ReturnHold,
-            Some(Mode::ReturnHold) if along_cut > SPEED_DEAD_BAND => Mode::Cutting,
+            Some(Mode::ReturnPart1) if past_mid < 0.0 => Mode::ReturnPart2,
+            Some(Mode::ReturnPart2) if along_cut > SPEED_DEAD_BAND => Mode::Cutting,
             Some(mode) => mode,
         };
         let changed = self.mode != Some(next);
@@ -194,9 +194,126 @@ impl StrokeSwitch {
 
     fn return_part(past_mid: f64) -> Mode {
         if past_mid > 0.0 {
-            Mode::ReturnDrive
+            Mode::ReturnPart1
         } else {
-            Mode::ReturnHold
+            Mode::ReturnPart2
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use models::velocity_profile::ProfileParams;
+    use models::whitworth::Geometry;
+    use models::whitworth_dynamics::{Dynamics, LinkMasses};
+
+    fn twin() -> (SliderModel, VelocityProfile) {
+        let slider = SliderModel::new(
+            Dynamics::new(Geometry::default(), LinkMasses::default(), 9.81).unwrap(),
+        )
+        .unwrap();
+        let stroke = *slider.stroke();
+        let profile = VelocityProfile::new(&ProfileParams {
+            x_min: stroke.top,
+            x_max: stroke.bottom,
+            workpiece_length: 0.3,
+            velocity: -1.25,
+        })
+        .unwrap();
+        (slider, profile)
+    }
+
+    #[test]
+    fn planned_return_lands_on_the_hand_over_speed() {
+        let (slider, profile) = twin();
+        let plan = ReturnPlan::design(&slider, &profile, 80.0).unwrap();
+        assert_eq!(plan.part1_torque, -80.0);
+        assert!((plan.mid_stroke - (0.05428 - 0.41242) / 2.0).abs() < 1e-9);
+        // At a singular point ÿ = y″·q̇², which must equal the blend's |ẍ| = 9.373 m/s².
+        assert!((plan.top_speed + 10.09).abs() < 0.01, "{}", plan.top_speed);
+        assert!(
+            (plan.bottom_speed + 5.94).abs() < 0.01,
+            "{}",
+            plan.bottom_speed
+        );
+        // Integrate the return open loop from the bottom; the crank reaches the top at top_speed.
+        let d = slider.dynamics();
+        let top =
+            slider.stroke().bottom_crank_angle - (TAU - slider.stroke().cutting_crank_travel());
+        let (mut q, mut w, dt) = (slider.stroke().bottom_crank_angle, plan.bottom_speed, 1e-5);
+        while q > top {
+            let past_mid = d.geometry().ram_position(q) > plan.mid_stroke;
+            let torque = if past_mid {
+                plan.part2_torque
+            } else {
+                plan.part1_torque
+            };
+            let a = d.crank_acceleration(q, w, torque, 0.0);
+            w += a * dt;
+            q += w * dt;
+        }
+        assert!((w - plan.top_speed).abs() < 0.02, "arrives at {w} rad/s");
+    }
+
+    #[test]
+    fn bad_drive_torque_is_rejected() {
+        let (slider, profile) = twin();
+        for drive in [0.0, -5.0, f64::NAN] {
+            let err = ReturnPlan::design(&slider, &profile, drive).unwrap_err();
+            assert!(err.0.contains("return_drive_torque"), "{}", err.0);
+        }
+    }
+
+    #[test]
+    fn strokes_follow_the_ram_velocity() {
+        let (slider, _) = twin();
+        let stroke = *slider.stroke();
+        let mid = 0.5 * (stroke.top + stroke.bottom);
+        let mut switch = StrokeSwitch::new(&slider, mid);
+        // At rest just past the top: the crank is in the cutting half.
+        let q_start = stroke.top_crank_angle - 0.2;
+        assert_eq!(
+            switch.update(&slider, q_start, 0.05, 0.0),
+            Some(Mode::Cutting)
+        );
+        assert_eq!(switch.update(&slider, q_start, 0.0, -1.2), None);
+        // Ripple of the ram speed near the bottom does not end the cut before mid-stroke …
+        assert_eq!(switch.update(&slider, 0.0, -0.1, 0.5), None);
+        // … past it, the ram turning back does.
+        assert_eq!(
+            switch.update(&slider, -1.9, -0.41, 0.2),
+            Some(Mode::ReturnPart1)
+        );
+        assert_eq!(switch.update(&slider, -2.5, -0.3, 2.0), None);
+        assert_eq!(
+            switch.update(&slider, -3.3, -0.1, 3.0),
+            Some(Mode::ReturnPart2)
+        );
+        assert_eq!(switch.update(&slider, -4.4, 0.054, 0.005), None);
+        assert_eq!(
+            switch.update(&slider, -4.5, 0.054, -0.05),
+            Some(Mode::Cutting)
+        );
+        assert_eq!(switch.mode(), Some(Mode::Cutting));
+        switch.reset();
+        assert_eq!(switch.mode(), None);
+        // At rest in the return half, below mid-stroke: part 1.
+        assert_eq!(
+            switch.update(&slider, -2.2, -0.38, 0.0),
+            Some(Mode::ReturnPart1)
+        );
+    }
+
+    #[test]
+    fn modes_are_numbered() {
+        let numbers = [
+            Mode::Tracking,
+            Mode::Cutting,
+            Mode::ReturnPart1,
+            Mode::ReturnPart2,
+        ]
+        .map(Mode::number);
+        assert_eq!(numbers, [0.0, 1.0, 2.0, 3.0]);
     }
 }

@@ -224,13 +224,13 @@ impl<L: TaskLaw> TaskController<L> {
         self.events.push(match mode {
             Mode::Tracking => format!("tracking the scenario reference: {}", self.law.label()),
             Mode::Cutting => format!("cutting stroke: {}", self.law.label()),
-            Mode::ReturnDrive => format!(
+            Mode::ReturnPart1 => format!(
                 "return stroke part 1: open loop, τ = {:+.2} N·m",
-                plan.drive_torque
+                plan.part1_torque
             ),
-            Mode::ReturnHold => format!(
+            Mode::ReturnPart2 => format!(
                 "return stroke part 2: open loop, τ = {:+.2} N·m",
-                plan.hold_torque
+                plan.part2_torque
             ),
         });
         self.mode = Some(mode);
@@ -280,7 +280,7 @@ impl<L: TaskLaw> Controller for TaskController<L> {
         };
         if !tracking {
             let plan = self.design.return_plan;
-            for (part, torque) in [(1, plan.drive_torque), (2, plan.hold_torque)] {
+            for (part, torque) in [(1, plan.part1_torque), (2, plan.part2_torque)] {
                 if torque.abs() > self.effort_limit {
                     return Err(bad(
                         self.name,
@@ -328,13 +328,13 @@ impl<L: TaskLaw> Controller for TaskController<L> {
         let slider = &self.design.slider;
         self.rho_hat = slider.compensator(q);
         let torque = match self.mode {
-            Some(Mode::ReturnDrive) => {
+            Some(Mode::ReturnPart1) => {
                 self.force = 0.0;
-                self.design.return_plan.drive_torque
+                self.design.return_plan.part1_torque
             }
-            Some(Mode::ReturnHold) => {
+            Some(Mode::ReturnPart2) => {
                 self.force = 0.0;
-                self.design.return_plan.hold_torque
+                self.design.return_plan.part2_torque
             }
             _ => {
                 self.reference = self.reference_at(measurement);
@@ -381,5 +381,140 @@ impl<L: TaskLaw> Controller for TaskController<L> {
 
     fn drain_events(&mut self, events: &mut Vec<String>) {
         events.append(&mut self.events);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::osmc::{build, OsmcParams};
+    use super::super::test_plant::Plant;
+    use super::*;
+    use models::reference::Reference;
+
+    fn osmc(task: TaskParams) -> Result<super::super::osmc::Osmc, ControllerError> {
+        build(OsmcParams {
+            task,
+            ..Default::default()
+        })
+    }
+
+    #[test]
+    fn task_errors_are_raised_before_the_run() {
+        let cases = [
+            (
+                TaskParams {
+                    workpiece_length: 0.5,
+                    ..Default::default()
+                },
+                "shorter than the stroke",
+            ),
+            (
+                TaskParams {
+                    cutting_velocity: -1e308,
+                    ..Default::default()
+                },
+                "t_a",
+            ),
+            (
+                TaskParams {
+                    cutting_velocity: 1.25,
+                    ..Default::default()
+                },
+                "points against the stroke",
+            ),
+            (
+                TaskParams {
+                    return_drive_torque: 0.0,
+                    ..Default::default()
+                },
+                "return_drive_torque",
+            ),
+            (
+                TaskParams {
+                    gravity: f64::INFINITY,
+                    ..Default::default()
+                },
+                "gravity",
+            ),
+        ];
+        for (task, expected) in cases {
+            let err = osmc(task).err().unwrap();
+            assert!(
+                matches!(err, ControllerError::BadParameters { .. })
+                    && err.to_string().contains(expected),
+                "{err}"
+            );
+        }
+    }
+
+    #[test]
+    fn return_torque_beyond_the_actuator_is_an_error_at_reset() {
+        let mut controller = osmc(TaskParams {
+            return_drive_torque: 400.0,
+            ..Default::default()
+        })
+        .unwrap();
+        let err = controller.reset(&Plant::twin().interface()).unwrap_err();
+        assert!(err.to_string().contains("return stroke part 1"), "{err}");
+    }
+
+    #[test]
+    fn reference_choice_follows_the_plant() {
+        let mut tracking = Plant::twin();
+        tracking.reference = Some(Reference::Constant { value: -0.1 });
+        let mut controller = osmc(TaskParams::default()).unwrap();
+        controller.reset(&tracking.interface()).unwrap();
+        tracking.run(&mut controller, 0.002, 1e-3);
+        let mut events = Vec::new();
+        controller.drain_events(&mut events);
+        assert_eq!(events, ["tracking the scenario reference: OSMC"]);
+
+        let mut controller = osmc(TaskParams::default()).unwrap();
+        controller.reset(&Plant::twin().interface()).unwrap();
+        Plant::twin().run(&mut controller, 0.002, 1e-3);
+        controller.drain_events(&mut events);
+        assert_eq!(
+            events.last().map(String::as_str),
+            Some("cutting stroke: OSMC")
+        );
+
+        let mut controller = osmc(TaskParams {
+            reference: ReferenceChoice::Scenario,
+            ..Default::default()
+        })
+        .unwrap();
+        let err = controller.reset(&Plant::twin().interface()).unwrap_err();
+        assert!(
+            matches!(err, ControllerError::MissingSignal { ref signal, .. } if signal == "reference"),
+            "{err}"
+        );
+    }
+
+    #[test]
+    fn internals_cover_the_shared_signals_and_the_law() {
+        let mut controller = osmc(TaskParams::default()).unwrap();
+        controller.reset(&Plant::twin().interface()).unwrap();
+        let names = controller.internal_names();
+        for name in [
+            "mode",
+            "reference",
+            "u",
+            "rho_hat",
+            "s",
+            "sigma",
+            "k_x",
+            "s_x",
+        ] {
+            assert!(
+                names.iter().any(|n| n == name),
+                "{name} missing from {names:?}"
+            );
+        }
+        Plant::twin().run(&mut controller, 0.01, 1e-3);
+        let mut values = vec![0.0; names.len()];
+        controller.internal_values(&mut values);
+        assert_eq!(values[0], 1.0, "cutting");
+        let rho_hat = values[names.iter().position(|n| n == "rho_hat").unwrap()];
+        assert_eq!(rho_hat, controller.design().slider.jacobian_gain());
     }
 }

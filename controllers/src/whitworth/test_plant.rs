@@ -28,6 +28,8 @@ pub struct Sample {
 
 pub struct Plant {
     pub dynamics: Dynamics,
+    /// Simulated time, s.
+    pub time: f64,
     pub q: f64,
     pub crank_speed: f64,
     pub contact: Option<Contact>,
@@ -41,6 +43,7 @@ impl Plant {
     pub fn twin() -> Self {
         Self {
             dynamics: Dynamics::new(Geometry::default(), LinkMasses::default(), 9.81).unwrap(),
+            time: 0.0,
             q: FRAC_PI_2,
             crank_speed: 0.0,
             contact: None,
@@ -99,7 +102,8 @@ impl Plant {
         self.crank_speed += dt / 6.0 * (k1.1 + 2.0 * k2.1 + 2.0 * k3.1 + k4.1);
     }
 
-    /// Runs `controller` (already reset on [`interface`](Self::interface)) for `duration` s.
+    /// Runs `controller` (already reset on [`interface`](Self::interface)) for `duration` more
+    /// seconds.
     pub fn run(
         &mut self,
         controller: &mut dyn Controller,
@@ -109,8 +113,8 @@ impl Plant {
         let steps = (duration / period).round() as usize;
         let mut samples = Vec::with_capacity(steps);
         let mut effort = [0.0];
-        for k in 0..steps {
-            let time = k as f64 * period;
+        for _ in 0..steps {
+            let time = self.time;
             let geometry = self.dynamics.geometry();
             let y = geometry.ram_position(self.q);
             let v = geometry.ram_jacobian(self.q) * self.crank_speed;
@@ -138,6 +142,7 @@ impl Plant {
             for _ in 0..self.substeps {
                 self.step(effort[0], period / self.substeps as f64);
             }
+            self.time += period;
         }
         samples
     }

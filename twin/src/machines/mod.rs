@@ -40,6 +40,14 @@ pub trait Machine {
         diagnostics: &mut [f64],
     );
 
+    /// The drives between controller and joints, stepped every physics step: turn each commanded
+    /// effort (already clipped to the URDF limit, held between control periods) into the effort
+    /// the joint receives — through an amplifier's current limit or a motor model — and keep
+    /// their state (currents) for `measure`. The default is an ideal drive.
+    fn drive(&mut self, _dt: f64, commanded: &[f64], applied: &mut [f64]) {
+        applied.copy_from_slice(commanded);
+    }
+
     /// Process loads (cutting, contact) acting during the coming step.
     fn loads(&mut self, _time: f64, _state: &MechanismState, _loads: &mut Vec<Load>) {}
 

@@ -1,9 +1,13 @@
 //! The inverted Whitworth quick-return shaper: crank angle and ram motion as the machine's own
-//! signals, checked every step against the closed-form kinematics of `models::whitworth`.
+//! signals, checked every step against the closed-form kinematics of `models::whitworth`; with a
+//! `[process.workpiece]`, the cutting process of [`cutting`] (contact force and cutting figures).
+
+mod cutting;
 
 use super::{joint, link, Machine, MachineError};
 use crate::mechanism::Mechanism;
-use crate::physics::MechanismState;
+use crate::physics::{Load, MechanismState};
+use cutting::{Cutting, Workpiece};
 use models::whitworth::Geometry;
 use serde::Deserialize;
 
@@ -13,6 +17,8 @@ use serde::Deserialize;
 struct ProcessParams {
     /// Linkage dimensions for the analytic check; they must describe the URDF.
     geometry: Option<Geometry>,
+    /// The workpiece under the ram; absent: the shaper runs idle.
+    workpiece: Option<Workpiece>,
 }
 
 pub struct Whitworth {
@@ -26,7 +32,15 @@ pub struct Whitworth {
     ram_lowest: f64,
     crank_start: Option<f64>,
     crank_angle: f64,
+    /// Last sign of the crank speed outside the dead band, and how often it changed.
+    crank_direction: Option<f64>,
+    crank_reversals: usize,
+    cutting: Option<Cutting>,
+    contact_force: f64,
 }
+
+/// Dead band on the crank speed when counting reversals, rad/s.
+const CRANK_SPEED_DEAD_BAND: f64 = 0.05;
 
 impl Whitworth {
     pub fn new(mechanism: &Mechanism, process: &toml::Table) -> Result<Self, MachineError> {
@@ -44,6 +58,14 @@ impl Whitworth {
                 reason: e.to_string(),
             })?;
         let crank_joint = joint("whitworth", mechanism, "crank")?;
+        let cutting = params
+            .workpiece
+            .map(|w| Cutting::new(&geometry, w))
+            .transpose()
+            .map_err(|reason| MachineError::BadParameters {
+                machine: "whitworth".into(),
+                reason,
+            })?;
         Ok(Self {
             geometry,
             crank_joint,
@@ -54,6 +76,10 @@ impl Whitworth {
             ram_lowest: f64::INFINITY,
             crank_start: None,
             crank_angle: 0.0,
+            crank_direction: None,
+            crank_reversals: 0,
+            cutting,
+            contact_force: 0.0,
         })
     }
 }
@@ -66,38 +92,68 @@ impl Machine for Whitworth {
     }
 
     fn diagnostic_names(&self) -> Vec<String> {
-        vec!["ram_model_error".into()]
+        let mut names = vec!["ram_model_error".to_string()];
+        if self.cutting.is_some() {
+            names.push("contact_force".into());
+        }
+        names
     }
 
     fn measure(
         &mut self,
-        _time: f64,
+        time: f64,
         state: &MechanismState,
         signals: &mut [f64],
         diagnostics: &mut [f64],
     ) {
         self.crank_angle = self.crank_zero + state.joint_positions[self.crank_joint];
         let ram_position = state.link_poses[self.ram_link].y;
+        let ram_velocity = state.link_velocities[self.ram_link][1];
         let model_error = ram_position - self.geometry.ram_position(self.crank_angle);
-        signals.copy_from_slice(&[
-            self.crank_angle,
-            ram_position,
-            state.link_velocities[self.ram_link][1],
-        ]);
+        signals.copy_from_slice(&[self.crank_angle, ram_position, ram_velocity]);
         diagnostics[0] = model_error;
+        if let Some(cutting) = self.cutting.as_mut() {
+            self.contact_force = cutting.contact_force(ram_position, ram_velocity);
+            diagnostics[1] = self.contact_force;
+            cutting.observe(time, ram_position, ram_velocity);
+        }
+        let crank_speed = state.joint_velocities[self.crank_joint];
+        if crank_speed.abs() > CRANK_SPEED_DEAD_BAND {
+            let direction = crank_speed.signum();
+            if self.crank_direction.is_some_and(|d| d != direction) {
+                self.crank_reversals += 1;
+            }
+            self.crank_direction = Some(direction);
+        }
         self.ram_model_error_max = self.ram_model_error_max.max(model_error.abs());
         self.ram_highest = self.ram_highest.max(ram_position);
         self.ram_lowest = self.ram_lowest.min(ram_position);
         self.crank_start.get_or_insert(self.crank_angle);
     }
 
+    fn loads(&mut self, _time: f64, state: &MechanismState, loads: &mut Vec<Load>) {
+        if self.contact_force != 0.0 {
+            let ram = state.link_poses[self.ram_link];
+            loads.push(Load {
+                link: self.ram_link,
+                force: [0.0, self.contact_force],
+                point: [ram.x, ram.y],
+            });
+        }
+    }
+
     fn metrics(&self) -> Vec<(String, f64)> {
         let turns = (self.crank_angle - self.crank_start.unwrap_or(self.crank_angle))
             / std::f64::consts::TAU;
-        vec![
+        let mut metrics = vec![
             ("ram_model_error_max".into(), self.ram_model_error_max),
             ("ram_stroke".into(), self.ram_highest - self.ram_lowest),
             ("crank_turns".into(), turns),
-        ]
+            ("crank_reversals".into(), self.crank_reversals as f64),
+        ];
+        if let Some(cutting) = &self.cutting {
+            metrics.extend(cutting.metrics());
+        }
+        metrics
     }
 }
