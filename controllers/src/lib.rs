@@ -13,11 +13,19 @@ pub use controller::{
 };
 pub use registry::{parse_params, Registry};
 
+pub mod arm_servo;
 pub mod crank_pi;
+pub mod energy_optimal;
 pub mod filters;
+pub mod lathe_force;
 pub mod output_feedback_design;
 pub mod p_pi;
 pub mod passive;
+pub mod path_speed_adaptive;
+pub mod path_speed_constant;
+pub mod platform_guidance;
+pub mod platform_model;
+pub mod platform_pid;
 pub mod stsmc;
 pub mod stsmc_dob;
 pub mod whitworth;
@@ -26,6 +34,8 @@ pub mod whitworth;
 fn builtin_entries() -> Vec<registry::Entry> {
     vec![
         passive::entry(),
+        energy_optimal::entry(),
+        platform_pid::entry(),
         crank_pi::entry(),
         whitworth::osmc::entry(),
         whitworth::ffc::entry(),
@@ -34,5 +44,8 @@ fn builtin_entries() -> Vec<registry::Entry> {
         p_pi::entry(),
         stsmc::entry(),
         stsmc_dob::entry(),
+        lathe_force::entry(),
+        path_speed_adaptive::entry(),
+        path_speed_constant::entry(),
     ]
 }

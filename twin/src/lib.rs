@@ -3,6 +3,7 @@
 //!
 //! One door in: [`Twin::run`]. Only [`physics`] knows Rapier; only `recording` knows Rerun.
 
+pub mod analysis;
 pub mod energy;
 pub mod machines;
 pub mod mechanism;

@@ -28,6 +28,8 @@ enum Command {
     Bench(BenchArgs),
     /// Run a seed paper's scenarios and put its claims next to the twin's figures.
     Reproduce(ReproduceArgs),
+    /// Analyse a machine's reduced model (the lathe's phase plane): CSV files and a 2D .rrd.
+    Analyze(twin::analysis::AnalyzeArgs),
 }
 
 #[derive(clap::Args)]
@@ -81,6 +83,12 @@ fn main() -> ExitCode {
         Command::Run(args) => run(args, &registry),
         Command::Bench(args) => bench(args, &registry),
         Command::Reproduce(args) => reproduce(args, &registry),
+        Command::Analyze(args) => twin::analysis::run(&args)
+            .map(|summary| {
+                print!("{summary}");
+                ExitCode::SUCCESS
+            })
+            .map_err(|e| e.to_string()),
     };
     outcome.unwrap_or_else(|message| {
         eprintln!("error: {message}");

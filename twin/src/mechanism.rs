@@ -141,9 +141,41 @@ pub struct LoopJoint {
     pub frame2: Pose2,
 }
 
+/// A rolling wheel on a link (the `<wheel>` extension): it spins about an axis in the plane, which
+/// a planar world cannot rotate about, so it is not a body of the tree but a spin state the machine
+/// integrates, touching the floor at its frame's origin.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Wheel {
+    pub name: String,
+    /// Index into [`Mechanism::links`]: the link carrying the axle.
+    pub link: usize,
+    /// The wheel centre (and, seen from above, its contact point) in the link's frame.
+    pub origin: Pose2,
+    /// Unit spin axis in the wheel's frame (`origin`), in the plane; a positive spin rolls the
+    /// wheel towards `axis × z`.
+    pub axis: [f64; 2],
+    /// Rolling radius, m.
+    pub radius: f64,
+    /// Tread width, m (drawn).
+    pub width: f64,
+    /// Moment of inertia about the spin axis, kg·m².
+    pub spin_inertia: f64,
+    /// Tyre–floor friction coefficient μ.
+    pub friction: f64,
+    /// Largest |drive torque| at the wheel, N·m; `Some` marks a driven wheel (an actuator).
+    pub effort_limit: Option<f64>,
+}
+
+impl Wheel {
+    /// Rolling direction (for a positive spin) in the wheel's frame: `axis × z`.
+    pub fn heading(&self) -> [f64; 2] {
+        [self.axis[1], -self.axis[0]]
+    }
+}
+
 /// A planar mechanism: links in tree order (the root, the ground, first; every parent before its
-/// children), the tree's joints in the same order (joint `i` has child link `i + 1`) and the loop
-/// joints.
+/// children), the tree's joints in the same order (joint `i` has child link `i + 1`), the loop
+/// joints and the rolling wheels.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Mechanism {
     pub name: String,
@@ -152,6 +184,7 @@ pub struct Mechanism {
     pub links: Vec<Link>,
     pub joints: Vec<Joint>,
     pub loops: Vec<LoopJoint>,
+    pub wheels: Vec<Wheel>,
 }
 
 impl Mechanism {
@@ -170,6 +203,10 @@ impl Mechanism {
             poses[joint.child] = poses[joint.parent].compose(&joint.origin);
         }
         poses
+    }
+
+    pub fn wheel_index(&self, name: &str) -> Option<usize> {
+        self.wheels.iter().position(|w| w.name == name)
     }
 
     /// Indices of the actuated joints (those with an effort limit), in tree order.

@@ -144,7 +144,6 @@ impl Physics {
             body.reset_forces(false);
             body.reset_torques(false);
         }
-        let poses = self.link_poses();
         for (joint, &effort) in self.mechanism.joints.iter().zip(joint_efforts) {
             if effort == 0.0 {
                 continue;
@@ -156,9 +155,10 @@ impl Physics {
                     self.world.bodies[parent].add_torque(-sign * effort, false);
                 }
                 JointMotion::Prismatic { axis } => {
-                    let frame = poses[joint.parent].compose(&joint.origin);
+                    let parent_pose = from_rapier(self.world.bodies[parent].position());
+                    let frame = parent_pose.compose(&joint.origin);
                     let [ax, ay] = frame.rotate(axis[0], axis[1]);
-                    let point = Vector::new(poses[joint.child].x, poses[joint.child].y);
+                    let point = self.world.bodies[child].position().translation;
                     let force = Vector::new(ax * effort, ay * effort);
                     self.world.bodies[child].add_force_at_point(force, point, false);
                     self.world.bodies[parent].add_force_at_point(-force, point, false);
@@ -172,13 +172,6 @@ impl Physics {
             self.world.bodies[self.bodies[load.link]].add_force_at_point(force, point, false);
         }
         self.world.step();
-    }
-
-    fn link_poses(&self) -> Vec<Pose2> {
-        self.bodies
-            .iter()
-            .map(|&h| from_rapier(self.world.bodies[h].position()))
-            .collect()
     }
 
     /// Reads the state into `state`, reusing its buffers.

@@ -92,7 +92,7 @@ pub struct Twin {
     plant: PlantInterface,
     /// Per plant signal: its sensor, if the scenario gives one.
     sensors: Vec<Option<Sensor>>,
-    /// Tree joint index of each actuator.
+    /// Tree joint index of each actuator on a joint; the machine's own actuators follow them.
     actuated: Vec<usize>,
     /// Tree joints with a coordinate (not fixed).
     movable: Vec<usize>,
@@ -130,7 +130,7 @@ impl Twin {
                 ["reference", "reference_rate", "reference_acceleration"].map(String::from),
             );
         }
-        let actuators = actuated
+        let mut actuators: Vec<Actuator> = actuated
             .iter()
             .map(|&j| {
                 let joint = &mechanism.joints[j];
@@ -144,6 +144,7 @@ impl Twin {
                 }
             })
             .collect();
+        actuators.extend(machine.extra_actuators());
         let plant = PlantInterface {
             machine: scenario.machine.clone(),
             signals,
@@ -258,16 +259,17 @@ impl Twin {
         let mut measured = vec![0.0; signal_count];
         let mut diagnostics = vec![0.0; diagnostic_names.len()];
         let mut internals = vec![0.0; internal_names.len()];
-        let mut commanded = vec![0.0; self.actuated.len()];
-        let mut limited = vec![0.0; self.actuated.len()];
-        let mut applied = vec![0.0; self.actuated.len()];
-        let mut saturated = vec![false; self.actuated.len()];
+        let actuator_count = self.plant.actuators.len();
+        let mut commanded = vec![0.0; actuator_count];
+        let mut limited = vec![0.0; actuator_count];
+        let mut applied = vec![0.0; actuator_count];
+        let mut saturated = vec![false; actuator_count];
         let mut joint_efforts = vec![0.0; self.mechanism.joints.len()];
         let mut loads: Vec<Load> = Vec::new();
         let mut events: Vec<String> = Vec::new();
         let mut values: Vec<f64> = Vec::new();
         let mut noise = Noise::new(scenario.seed);
-        let mut stats = RunStats::new(self.actuated.len());
+        let mut stats = RunStats::new(actuator_count);
         let mut failure = None;
         let mut digest = Digest::default();
 
@@ -408,6 +410,13 @@ impl Twin {
 
         let mut metrics = self.machine.metrics();
         metrics.extend(stats.metrics(&self.plant.actuators, &self.mechanism));
+        // The controller's estimates at the end (e.g. an odometry pose), by their internal names.
+        metrics.extend(
+            internal_names
+                .iter()
+                .zip(&internals)
+                .map(|(name, value)| (format!("controller_final/{name}"), *value)),
+        );
         Ok(RunSummary {
             scenario: scenario.name.clone(),
             controller: self.controller.name().to_string(),

@@ -11,10 +11,16 @@ use thiserror::Error;
 
 /// The scenarios shipped with the twin: (name, TOML).
 pub const BUILTIN: &[(&str, &str)] = &[
+    ("platform-path", include_str!("../scenarios/platform-path.toml")),
+    (
+        "platform-path-s",
+        include_str!("../scenarios/platform-path-s.toml"),
+    ),
     (
         "whitworth-crank-pi",
         include_str!("../scenarios/whitworth-crank-pi.toml"),
     ),
+    ("arm-milling", include_str!("../scenarios/arm-milling.toml")),
     (
         "whitworth-tracking",
         include_str!("../scenarios/whitworth-tracking.toml"),
@@ -23,13 +29,30 @@ pub const BUILTIN: &[(&str, &str)] = &[
         "whitworth-cutting",
         include_str!("../scenarios/whitworth-cutting.toml"),
     ),
+    (
+        "feed-axis-micromilling",
+        include_str!("../scenarios/feed-axis-micromilling.toml"),
+    ),
+    (
+        "lathe-turning",
+        include_str!("../scenarios/lathe-turning.toml"),
+    ),
 ];
 
 /// The URDF files shipped with the twin, by the path scenarios name them with.
-const BUILTIN_URDF: &[(&str, &str)] = &[(
-    "urdf/whitworth.urdf",
-    include_str!("../../urdf/whitworth.urdf"),
-)];
+const BUILTIN_URDF: &[(&str, &str)] = &[
+    ("urdf/platform.urdf", include_str!("../../urdf/platform.urdf")),
+    (
+        "urdf/whitworth.urdf",
+        include_str!("../../urdf/whitworth.urdf"),
+    ),
+    ("urdf/arm.urdf", include_str!("../../urdf/arm.urdf")),
+    (
+        "urdf/feed_axis.urdf",
+        include_str!("../../urdf/feed_axis.urdf"),
+    ),
+    ("urdf/lathe.urdf", include_str!("../../urdf/lathe.urdf")),
+];
 
 #[derive(Debug, Error, Clone, PartialEq)]
 pub enum ScenarioError {

@@ -13,9 +13,25 @@
 //!
 //! The two frames must coincide (position, and for a prismatic joint also direction) in the pose
 //! the URDF describes, where every tree joint is at zero: the loader checks it.
+//!
+//! A wheel rolling on the floor spins about an axis in the plane, which a planar world cannot
+//! rotate about; `<wheel>` declares one on the link that carries its axle:
+//!
+//! ```xml
+//! <wheel name="left_wheel" link="chassis" xyz="0 0.1 0" rpy="0 0 0" axis="0 1 0"
+//!        radius="0.04" width="0.02" spin_inertia="1e-4" friction="0.8"
+//!        driven="true" effort="0.9"/>
+//! ```
+//!
+//! `xyz`/`rpy` place the wheel centre (seen from above, its contact point) in the link frame;
+//! `axis` is the spin axis in that frame and must lie in the xy plane (default `0 1 0`: the wheel
+//! rolls along +x for a positive spin); `radius`, `width` (m) and `spin_inertia` (kg·m², about the
+//! axis) must be > 0; `friction` is the tyre–floor μ (> 0); a `driven="true"` wheel is an actuator
+//! with the torque limit `effort` (N·m, > 0). The wheel's mass belongs to its link's `<inertial>`.
+//! Its footprint is drawn as a visual of the link.
 
 use crate::mechanism::{
-    Inertial, Joint, JointMotion, Link, LoopJoint, Mechanism, Outline, Pose2, Shape,
+    Inertial, Joint, JointMotion, Link, LoopJoint, Mechanism, Outline, Pose2, Shape, Wheel,
 };
 use std::collections::HashMap;
 use std::path::Path;
@@ -110,8 +126,21 @@ impl Loader<'_> {
             links,
             joints,
             loops: Vec::new(),
+            wheels: Vec::new(),
         };
         mechanism.loops = self.loop_joints(document, &mechanism)?;
+        mechanism.wheels = self.wheels(document, &mechanism)?;
+        for wheel in &mechanism.wheels {
+            let [hx, hy] = wheel.heading();
+            mechanism.links[wheel.link].visuals.push(Shape {
+                origin: wheel.origin.compose(&Pose2::new(0.0, 0.0, hy.atan2(hx))),
+                outline: Outline::Rectangle {
+                    width: 2.0 * wheel.radius,
+                    height: wheel.width,
+                },
+                color: Some([0.15, 0.15, 0.15, 1.0]),
+            });
+        }
         Ok(mechanism)
     }
 
@@ -400,7 +429,7 @@ impl Loader<'_> {
             return Err(self.invalid(
                 format!("{element} <axis>"),
                 format!(
-                    "not planar: a revolute axis must be ±z, got ({}, {}, {})",
+                    "not planar: a revolute axis must be ±z, got ({}, {}, {}) (a wheel rolling on the floor is declared with <wheel>)",
                     axis[0], axis[1], axis[2]
                 ),
             ));
@@ -478,6 +507,98 @@ impl Loader<'_> {
             loops.push(loop_joint);
         }
         Ok(loops)
+    }
+
+    fn wheels(
+        &self,
+        document: &roxmltree::Document,
+        mechanism: &Mechanism,
+    ) -> Result<Vec<Wheel>, UrdfError> {
+        let mut wheels: Vec<Wheel> = Vec::new();
+        for node in document
+            .root_element()
+            .children()
+            .filter(|n| n.has_tag_name("wheel"))
+        {
+            let name = node.attribute("name").unwrap_or("").to_string();
+            let element = format!("wheel \"{name}\"");
+            if name.is_empty() {
+                return Err(self.invalid(element, "needs a name"));
+            }
+            if wheels.iter().any(|w| w.name == name)
+                || mechanism.joint_index(&name).is_some()
+                || mechanism.loops.iter().any(|l| l.name == name)
+            {
+                return Err(self.invalid(element, "name already used by another wheel or joint"));
+            }
+            let link_name = node.attribute("link").unwrap_or("");
+            let link = mechanism
+                .link_index(link_name)
+                .ok_or_else(|| self.invalid(element.clone(), format!("unknown link \"{link_name}\"")))?;
+            if link == 0 {
+                return Err(self.invalid(element, "cannot sit on the fixed root link"));
+            }
+            let pose = urdf_rs::Pose {
+                xyz: urdf_rs::Vec3(self.triple(&node, "xyz", &element)?),
+                rpy: urdf_rs::Vec3(self.triple(&node, "rpy", &element)?),
+            };
+            let origin = self.planar_pose(&pose, &element)?;
+            let axis = match node.attribute("axis") {
+                None => [0.0, 1.0, 0.0],
+                Some(_) => self.unit_axis(self.triple(&node, "axis", &element)?, &element)?,
+            };
+            if axis[2].abs() > PLANAR_TOLERANCE {
+                return Err(self.invalid(
+                    format!("{element} axis"),
+                    format!(
+                        "not planar: a wheel spins about an axis in the xy plane, its z part is {}",
+                        axis[2]
+                    ),
+                ));
+            }
+            let number = |attribute: &str, default: Option<f64>| -> Result<f64, UrdfError> {
+                let value = match (node.attribute(attribute), default) {
+                    (Some(text), _) => text.trim().parse::<f64>().map_err(|_| {
+                        self.invalid(element.clone(), format!("{attribute}=\"{text}\" is not a number"))
+                    })?,
+                    (None, Some(value)) => value,
+                    (None, None) => {
+                        return Err(self.invalid(element.clone(), format!("missing {attribute}=…")))
+                    }
+                };
+                if value.is_finite() && value > 0.0 {
+                    Ok(value)
+                } else {
+                    Err(self.invalid(element.clone(), format!("{attribute} must be > 0, got {value}")))
+                }
+            };
+            let radius = number("radius", None)?;
+            let width = number("width", Some(0.5 * radius))?;
+            let spin_inertia = number("spin_inertia", None)?;
+            let friction = number("friction", None)?;
+            let effort_limit = match node.attribute("driven") {
+                None | Some("false") => None,
+                Some("true") => Some(number("effort", None)?),
+                Some(other) => {
+                    return Err(self.invalid(
+                        element,
+                        format!("driven=\"{other}\" must be \"true\" or \"false\""),
+                    ))
+                }
+            };
+            wheels.push(Wheel {
+                name,
+                link,
+                origin,
+                axis: [axis[0], axis[1]],
+                radius,
+                width,
+                spin_inertia,
+                friction,
+                effort_limit,
+            });
+        }
+        Ok(wheels)
     }
 
     fn loop_end(

@@ -1,9 +1,14 @@
 //! Machines: what each mechanism measures in its own words (task-space and process signals), the
 //! process loads it suffers, and the figures a run of it is judged by.
 
+mod arm;
+mod feed_axis;
+mod lathe;
+mod platform;
 mod whitworth;
 
 use crate::mechanism::Mechanism;
+use controllers::Actuator;
 use crate::physics::{Load, MechanismState};
 use thiserror::Error;
 
@@ -40,6 +45,13 @@ pub trait Machine {
         diagnostics: &mut [f64],
     );
 
+    /// Actuators the machine provides besides the URDF's actuated joints (driven wheels). Their
+    /// efforts follow the joints' in the controller's effort slice and in `drive`; the machine
+    /// applies them itself (through `loads`).
+    fn extra_actuators(&self) -> Vec<Actuator> {
+        Vec::new()
+    }
+
     /// The drives between controller and joints, stepped every physics step: turn each commanded
     /// effort (already clipped to the URDF limit, held between control periods) into the effort
     /// the joint receives — through an amplifier's current limit or a motor model — and keep
@@ -56,7 +68,7 @@ pub trait Machine {
 }
 
 /// Names of the machines the twin knows.
-pub const MACHINES: &[&str] = &["whitworth"];
+pub const MACHINES: &[&str] = &["arm", "whitworth", "feed_axis", "platform", "lathe"];
 
 /// Builds the machine `name` on `mechanism` with the scenario's `[process]` table.
 pub fn build(
@@ -65,7 +77,11 @@ pub fn build(
     process: &toml::Table,
 ) -> Result<Box<dyn Machine>, MachineError> {
     match name {
+        "arm" => Ok(Box::new(arm::Arm::new(mechanism, process)?)),
         "whitworth" => Ok(Box::new(whitworth::Whitworth::new(mechanism, process)?)),
+        "platform" => Ok(Box::new(platform::Platform::new(mechanism, process)?)),
+        "feed_axis" => Ok(Box::new(feed_axis::FeedAxis::new(mechanism, process)?)),
+        "lathe" => Ok(Box::new(lathe::ParallelLathe::new(mechanism, process)?)),
         _ => Err(MachineError::Unknown {
             name: name.to_string(),
             known: MACHINES.join(", "),

@@ -14,6 +14,9 @@
 //! buffered in columns and sent with `send_columns` every [`FLUSH_EVERY`] samples and at the end.
 
 mod blueprint;
+mod plots;
+
+pub use plots::{write_plot, Plot2D, PlotGeometry, PlotLayer};
 
 use std::path::{Path, PathBuf};
 use std::sync::Arc;

@@ -3,6 +3,10 @@
 //! A paper's module runs its scenarios (every recording into one folder) and returns a
 //! [`Report`]: one row per claim with the paper's figure, the twin's figure and a verdict.
 
+mod arm;
+pub mod lathe;
+mod whitworth;
+
 use crate::run::TwinError;
 use controllers::Registry;
 use serde::Serialize;
@@ -46,7 +50,23 @@ pub struct Paper {
 }
 
 /// Every paper, in the order `twin list` shows them.
-pub const PAPERS: &[Paper] = &[];
+pub const PAPERS: &[Paper] = &[
+    Paper {
+        name: "whitworth-osmc",
+        summary: "Perrusquía et al. 2022: task-space OSMC for constant-velocity cutting on a Whitworth shaper",
+        run: whitworth::run,
+    },
+    Paper {
+        name: "arm",
+        summary: "Ilyukhin et al. 2014: machining robot, path speed corrected from motor currents",
+        run: arm::run,
+    },
+    Paper {
+        name: "lathe",
+        summary: "Sudhakara & Landers 2003: parallel turning power loop, its equilibria and region of attraction",
+        run: lathe::run,
+    },
+];
 
 #[derive(Debug, thiserror::Error)]
 pub enum ReproduceError {

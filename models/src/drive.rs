@@ -1,0 +1,276 @@
+//! A DC servo drive: permanent-magnet DC motor behind a gearbox, fed by an amplifier with a PI
+//! current loop whose current command is clipped to the motor's protection limit — the drive
+//! structure Ilyukhin, Poduraev & Tatarintseva (DAAAM 2014, §1) assume for every robot axis and
+//! for the tool spindle.
+//!
+//! # Model (SI units)
+//!
+//! Motor side: `L·di/dt = u − R·i − k_e·ω_m`, torque `k_t·i`; gearbox of ratio `G` (motor turns
+//! per joint turn), ideal (no losses, no backlash): `ω_m = G·ω_joint`, joint torque `G·k_t·i`. The
+//! rotor's own inertia is not modelled here: it belongs to the link inertia of the mechanism
+//! (for a direct-drive spindle it is part of the cutter link).
+//!
+//! Amplifier: the current command `i*` is clipped to `±current_limit`; a PI current loop sampled
+//! every `current_loop_period` sets the winding voltage `u = K_p·(i* − i) + K_i·∫(i* − i)`,
+//! clipped to the supply voltage (the integrator stops while clipped). The PI is designed by
+//! pole–zero cancellation of the winding: `K_p = L·ω_c`, `K_i = R·ω_c`, giving the closed current
+//! loop `1/(s/ω_c + 1)` when the voltage is not clipped. Between samples the voltage is held and
+//! the winding's linear equation is solved exactly (the electrical time constant `L/R` is far
+//! shorter than a physics step, so an explicit step would be unstable).
+
+use serde::Deserialize;
+use thiserror::Error;
+
+/// One drive's data sheet (SI units: N·m/A, V·s/rad, Ω, H, V, A, rad/s, s).
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DriveParams {
+    /// Motor torque constant k_t, N·m/A.
+    pub torque_constant: f64,
+    /// Back-EMF constant k_e, V·s/rad (equal to k_t in SI for an ideal machine).
+    pub back_emf_constant: f64,
+    /// Winding resistance R, Ω.
+    pub resistance: f64,
+    /// Winding inductance L, H.
+    pub inductance: f64,
+    /// Gear ratio G, motor turns per joint turn (1 for a direct drive).
+    pub gear_ratio: f64,
+    /// Amplifier supply: largest |winding voltage|, V.
+    pub supply_voltage: f64,
+    /// Motor protection: the current command is clipped to ±this, A.
+    pub current_limit: f64,
+    /// Closed current-loop bandwidth ω_c, rad/s.
+    pub current_bandwidth: f64,
+    /// Sampling period of the current loop, s.
+    pub current_loop_period: f64,
+}
+
+#[derive(Debug, Error, Clone, PartialEq)]
+pub enum DriveError {
+    #[error("drive: {name} must be finite and > 0 (got {value})")]
+    NotPositive { name: &'static str, value: f64 },
+    #[error(
+        "drive: the current loop's bandwidth ({bandwidth} rad/s) must be below the Nyquist \
+         frequency of its sampling (π/{period} s)"
+    )]
+    BandwidthTooHigh { bandwidth: f64, period: f64 },
+}
+
+impl DriveParams {
+    pub fn validate(&self) -> Result<(), DriveError> {
+        for (name, value) in [
+            ("torque_constant", self.torque_constant),
+            ("back_emf_constant", self.back_emf_constant),
+            ("resistance", self.resistance),
+            ("inductance", self.inductance),
+            ("gear_ratio", self.gear_ratio),
+            ("supply_voltage", self.supply_voltage),
+            ("current_limit", self.current_limit),
+            ("current_bandwidth", self.current_bandwidth),
+            ("current_loop_period", self.current_loop_period),
+        ] {
+            if !(value > 0.0 && value.is_finite()) {
+                return Err(DriveError::NotPositive { name, value });
+            }
+        }
+        if self.current_bandwidth * self.current_loop_period >= std::f64::consts::PI {
+            return Err(DriveError::BandwidthTooHigh {
+                bandwidth: self.current_bandwidth,
+                period: self.current_loop_period,
+            });
+        }
+        Ok(())
+    }
+
+    /// Joint torque per ampere of winding current, `G·k_t`, N·m/A.
+    pub fn torque_per_ampere(&self) -> f64 {
+        self.gear_ratio * self.torque_constant
+    }
+
+    /// Largest joint torque the drive delivers, at the current limit, N·m.
+    pub fn peak_torque(&self) -> f64 {
+        self.torque_per_ampere() * self.current_limit
+    }
+}
+
+/// A running drive: winding current and the current loop's integrator.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Drive {
+    params: DriveParams,
+    current: f64,
+    /// ∫(i* − i) dt, A·s.
+    integral: f64,
+    /// The last current command after the protection clip, A.
+    command: f64,
+    /// Whether the last command was clipped.
+    limited: bool,
+}
+
+impl Drive {
+    pub fn new(params: DriveParams) -> Result<Self, DriveError> {
+        params.validate()?;
+        Ok(Self {
+            params,
+            current: 0.0,
+            integral: 0.0,
+            command: 0.0,
+            limited: false,
+        })
+    }
+
+    pub fn params(&self) -> &DriveParams {
+        &self.params
+    }
+
+    /// Winding current, A.
+    pub fn current(&self) -> f64 {
+        self.current
+    }
+
+    /// Joint torque the motor delivers now, N·m.
+    pub fn torque(&self) -> f64 {
+        self.params.torque_per_ampere() * self.current
+    }
+
+    /// The current command after the protection clip, A.
+    pub fn command(&self) -> f64 {
+        self.command
+    }
+
+    /// Whether the last command was clipped at the current limit.
+    pub fn at_limit(&self) -> bool {
+        self.limited
+    }
+
+    /// Advances the drive by `dt` (s) with the current command `command` (A, held over the step)
+    /// and the joint turning at `joint_speed` (rad/s, held); returns the joint torque, N·m.
+    pub fn step(&mut self, dt: f64, command: f64, joint_speed: f64) -> f64 {
+        let p = self.params;
+        let limit = p.current_limit;
+        self.command = if command.is_nan() {
+            0.0
+        } else {
+            command.clamp(-limit, limit)
+        };
+        self.limited = command.abs() >= limit;
+        if !(dt > 0.0 && dt.is_finite()) {
+            return self.torque();
+        }
+        let samples = (dt / p.current_loop_period - 1e-9).ceil().max(1.0);
+        let h = dt / samples;
+        let (kp, ki) = (
+            p.inductance * p.current_bandwidth,
+            p.resistance * p.current_bandwidth,
+        );
+        let back_emf = p.back_emf_constant * p.gear_ratio * joint_speed;
+        let decay = (-h * p.resistance / p.inductance).exp();
+        for _ in 0..samples as usize {
+            let error = self.command - self.current;
+            let candidate = self.integral + error * h;
+            let unclipped = kp * error + ki * candidate;
+            if unclipped.abs() <= p.supply_voltage {
+                self.integral = candidate;
+            }
+            let voltage =
+                (kp * error + ki * self.integral).clamp(-p.supply_voltage, p.supply_voltage);
+            let steady = (voltage - back_emf) / p.resistance;
+            self.current = steady + (self.current - steady) * decay;
+        }
+        self.torque()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn params() -> DriveParams {
+        DriveParams {
+            torque_constant: 0.035,
+            back_emf_constant: 0.035,
+            resistance: 0.3,
+            inductance: 0.5e-3,
+            gear_ratio: 120.0,
+            supply_voltage: 48.0,
+            current_limit: 20.0,
+            current_bandwidth: 2000.0,
+            current_loop_period: 1e-4,
+        }
+    }
+
+    #[test]
+    fn current_loop_follows_a_step_at_its_bandwidth() {
+        let mut drive = Drive::new(params()).unwrap();
+        // One time constant 1/ω_c = 0.5 ms after a 10 A step: 1 − e⁻¹ of it.
+        for _ in 0..5 {
+            drive.step(1e-4, 10.0, 0.0);
+        }
+        let expected = 10.0 * (1.0 - (-1.0f64).exp());
+        // Within the sampled loop's accuracy (ω_c·T = 0.2).
+        assert!(
+            (drive.current() - expected).abs() < 0.6,
+            "{}",
+            drive.current()
+        );
+        for _ in 0..200 {
+            drive.step(1e-3, 10.0, 0.0);
+        }
+        assert!((drive.current() - 10.0).abs() < 1e-9);
+        assert!((drive.torque() - 10.0 * 120.0 * 0.035).abs() < 1e-6);
+    }
+
+    #[test]
+    fn integral_rejects_the_back_emf() {
+        let mut drive = Drive::new(params()).unwrap();
+        // 2 rad/s at the joint: 240 rad/s at the motor, 8.4 V of back-EMF.
+        for _ in 0..300 {
+            drive.step(1e-3, 5.0, 2.0);
+        }
+        assert!((drive.current() - 5.0).abs() < 1e-6, "{}", drive.current());
+    }
+
+    #[test]
+    fn protection_clips_the_command() {
+        let mut drive = Drive::new(params()).unwrap();
+        for _ in 0..100 {
+            drive.step(1e-3, -35.0, 0.0);
+        }
+        assert!(drive.at_limit());
+        assert_eq!(drive.command(), -20.0);
+        assert!((drive.current() + 20.0).abs() < 1e-6);
+        assert!((drive.torque() + params().peak_torque()).abs() < 1e-4);
+        drive.step(1e-3, 3.0, 0.0);
+        assert!(!drive.at_limit());
+    }
+
+    #[test]
+    fn supply_voltage_caps_the_speed() {
+        // Against a back-EMF above the supply the current cannot be pushed the commanded way.
+        let mut drive = Drive::new(params()).unwrap();
+        let too_fast = 60.0 / (0.035 * 120.0); // 60 V of back-EMF
+        for _ in 0..100 {
+            drive.step(1e-3, 10.0, too_fast);
+        }
+        assert!(drive.current() < 0.0, "{}", drive.current());
+    }
+
+    #[test]
+    fn rejects_bad_data() {
+        let bad = |p: DriveParams| Drive::new(p).unwrap_err().to_string();
+        assert!(bad(DriveParams {
+            resistance: 0.0,
+            ..params()
+        })
+        .contains("resistance"));
+        assert!(bad(DriveParams {
+            current_limit: -1.0,
+            ..params()
+        })
+        .contains("current_limit"));
+        assert!(bad(DriveParams {
+            current_bandwidth: 40_000.0,
+            ..params()
+        })
+        .contains("Nyquist"));
+    }
+}

@@ -1,0 +1,119 @@
+//! `twin analyze <machine>`: analyses of a machine's reduced model, written as CSV files and a
+//! 2D `.rrd` plot. The lathe's power loop is the one analysed so far ([`lathe`]).
+
+pub mod lathe;
+mod lathe_output;
+
+use crate::recording::RecordingError;
+use controllers::output_feedback_design::DesignError;
+use models::lathe::LatheError;
+use std::path::{Path, PathBuf};
+use thiserror::Error;
+
+#[derive(Debug, Error)]
+pub enum AnalysisError {
+    #[error("unknown analysis `{name}` (known: {known})")]
+    Unknown { name: String, known: String },
+    #[error(transparent)]
+    Lathe(#[from] LatheError),
+    #[error(transparent)]
+    Design(#[from] DesignError),
+    #[error("cannot write {path}: {reason}")]
+    Output { path: PathBuf, reason: String },
+    #[error(transparent)]
+    Recording(#[from] RecordingError),
+}
+
+/// Machines `twin analyze` knows.
+pub const ANALYSES: &[&str] = &["lathe"];
+
+/// Creates `dir` (and its parents) for an analysis' files.
+pub(crate) fn create_dir(dir: &Path) -> Result<(), AnalysisError> {
+    std::fs::create_dir_all(dir).map_err(|e| AnalysisError::Output {
+        path: dir.to_path_buf(),
+        reason: e.to_string(),
+    })
+}
+
+/// Writes `text` to `path` through `<path>.part`, so a file at `path` is always complete.
+pub(crate) fn write_text(path: &Path, text: &str) -> Result<(), AnalysisError> {
+    let output_error = |e: std::io::Error| AnalysisError::Output {
+        path: path.to_path_buf(),
+        reason: e.to_string(),
+    };
+    let mut partial = path.as_os_str().to_owned();
+    partial.push(".part");
+    std::fs::write(&partial, text).map_err(output_error)?;
+    std::fs::rename(&partial, path).map_err(output_error)
+}
+
+/// `twin analyze` arguments.
+#[derive(Debug, Clone, clap::Args)]
+pub struct AnalyzeArgs {
+    /// What to analyse: `lathe` (the parallel lathe's power loop, Table 1 of the paper).
+    pub machine: String,
+    /// Design time constant m_1 of eq (12), s.
+    #[arg(
+        long,
+        default_value_t = 0.5,
+        allow_negative_numbers = true,
+        conflicts_with_all = ["h1", "h2"]
+    )]
+    pub m1: f64,
+    /// Design time constant m_2 of eq (12), s.
+    #[arg(
+        long,
+        default_value_t = 0.49,
+        allow_negative_numbers = true,
+        conflicts_with_all = ["h1", "h2"]
+    )]
+    pub m2: f64,
+    /// Power gain h_1 in m/(rev·W) (the paper's mm/kW times 1e-6); with --h2 it replaces the
+    /// design. Write a negative value with `=`: --h1=-1.3052e-8.
+    #[arg(long, requires = "h2", allow_negative_numbers = true)]
+    pub h1: Option<f64>,
+    /// Power gain h_2 in m/(rev·W).
+    #[arg(long, requires = "h1", allow_negative_numbers = true)]
+    pub h2: Option<f64>,
+    /// Initial forces of the portrait grid go up to this for both tools, N.
+    #[arg(long, default_value_t = 5000.0, allow_negative_numbers = true)]
+    pub max_force: f64,
+    /// Grid points per axis of the portrait.
+    #[arg(long, default_value_t = 12)]
+    pub grid: usize,
+    /// Simulated time per trajectory, s.
+    #[arg(long, default_value_t = 20.0, allow_negative_numbers = true)]
+    pub duration: f64,
+    /// Folder for the CSV files and phase_plane.rrd.
+    #[arg(long, default_value = "lathe-phase")]
+    pub out_dir: PathBuf,
+}
+
+/// Runs `twin analyze`: the analysis, its files, and a summary for the terminal.
+pub fn run(args: &AnalyzeArgs) -> Result<String, AnalysisError> {
+    if args.machine != "lathe" {
+        return Err(AnalysisError::Unknown {
+            name: args.machine.clone(),
+            known: ANALYSES.join(", "),
+        });
+    }
+    let gains = match (args.h1, args.h2) {
+        (Some(h1), Some(h2)) => lathe::Gains::Given([h1, h2]),
+        _ => lathe::Gains::Design {
+            time_constants: [args.m1, args.m2],
+        },
+    };
+    let plane = lathe::analyze(&lathe::PhasePlaneRequest {
+        gains,
+        max_forces: [args.max_force; 2],
+        points_per_axis: args.grid,
+        duration: args.duration,
+        ..Default::default()
+    })?;
+    let files = plane.write(&args.out_dir)?;
+    let mut out = plane.summary();
+    for file in files {
+        out.push_str(&format!("wrote {}\n", file.display()));
+    }
+    Ok(out)
+}

@@ -1,0 +1,398 @@
+//! The machining robot of Ilyukhin, Poduraev & Tatarintseva (DAAAM 2014): a planar three-joint arm
+//! (`shoulder`, `elbow`, `wrist`) carrying a milling spindle (`spindle`, the cutter link) along a
+//! part contour whose cast stock varies in depth.
+//!
+//! **Drives take current commands.** Each arm joint is moved by a DC servo drive of
+//! [`models::drive`] (motor, gearbox, PI current loop, current command clipped to the motor's
+//! protection limit). The controller's effort for a joint is that drive's **current command, in
+//! A**; `drive` integrates the drive's electrical dynamics over the physics step and hands the
+//! twin the joint torque `G·k_t·i` (N·m) it produces. The actuators stay `EffortKind::Torque` with
+//! the URDF effort limit in N·m, and the machine requires that limit to be the drive's peak joint
+//! torque `G·k_t·I_max` (checked when built), so the URDF still says what the joint can take. The
+//! twin clips the command to that number before the drive; as every arm drive has `G·k_t` well
+//! above 1 N·m/A, that clip never acts on a current command within the drive's limit — the drive's
+//! own current limit is the one that binds.
+//!
+//! **Spindle.** The spindle is not a controller actuator: its own speed-controlled drive
+//! ([`spindle`]) turns it, applying the motor torque as a couple on the cutter and the opposite
+//! couple on the hand (the stator's reaction). Its current is measured like the others.
+//!
+//! **Process.** Every step the tool point (the cutter link's origin) is projected on the contour
+//! ([`models::arm_path::ContourPath`]); the radial depth of cut is the stock's depth there plus
+//! how far the tool has strayed into the stock, the path speed the tool's velocity along the
+//! contour, and [`models::arm_milling::Cutter::load`] gives the tooth-period mean force on the
+//! tool (applied at the spindle axis; the multibody carries its reaction to the joints as
+//! `Jᵀ(q)·F`, the paper's eq 1) and the torque resisting the spindle (a couple on the cutter). With
+//! the stock on the right of travel a counter-clockwise spindle mills up, a clockwise one down.
+//!
+//! Signals measured by the controller: `shoulder_current`, `elbow_current`, `wrist_current`,
+//! `spindle_current` (A) and the tool point `tool_x`, `tool_y` (m). Diagnostics: the tool's
+//! `path_deviation` (m), `path_position` (m), `radial_depth` (m), `cutting_force` (N) and
+//! `spindle_load_torque` (N·m). Figures: see [`figures`].
+//!
+//! # Model notes
+//!
+//! | part | value |
+//! | --- | --- |
+//! | upper arm / forearm / hand | 0.40 / 0.36 / 0.12 m; 9.0 / 5.0 / 3.5 kg; izz 0.15 / 0.06 / 0.01 kg·m² |
+//! | cutter (spindle rotor, holder, 10 mm two-flute end mill) | 0.4 kg, izz 2·10⁻⁴ kg·m² |
+//! | shoulder / elbow / wrist drive | k_t 0.035 / 0.025 / 0.02 N·m/A, gear 120 / 120 / 50: 4.2 / 3.0 / 1.0 N·m/A, 84 / 60 / 20 N·m at 20 A |
+//! | every arm motor | R 0.3 Ω, L 0.5 mH, k_e = k_t, 48 V, 20 A limit, current loop 2000 rad/s sampled at 10 kHz |
+//! | spindle | 6,000 rpm counter-clockwise (up milling), k_t 0.06 N·m/A direct, R 0.15 Ω, L 0.2 mH, 20 A, speed loop 60 rad/s |
+//! | cut | K_t 700 N/mm², K_n 210 N/mm² (cast aluminium), axial depth 5 mm, f_z 0.1 mm at 20 mm/s |
+//! | contour | 140 mm line at y = −0.25 m from x = 0.36 m, 30 mm-radius quarter arc turning down, 40 mm down: 227 mm |
+//! | stock | 1 mm radial, 3.5 mm from 60 to 100 mm of path (15 mm ramps), none before 10 or after 210 mm |
+//!
+//! At 20 mm/s the 3.5 mm stock asks the shoulder for ≈ 21 A (gravity ≈ 13 A of it, the up-milling
+//! pull into the stock the rest), beyond its 20 A; elsewhere ≈ 15 A. Rotor inertias are not
+//! modelled (they would add G²·J_m to each joint), nor gear losses.
+//!
+//! **Tuning of the correction** (`arm-milling`): the joint servos run at ω = 80 rad/s (open-loop
+//! crossover ω_c ≈ 275 rad/s). With the paper's `T_K2 = 1/ω_c` (3.6 ms) the shoulder current peaks
+//! at 19.3 A, 7 % over the 18 A tolerance; `T_K2` = 50 ms brings the peak to 18.1 A at the same
+//! finishing time, so the scenario sets it. `T_K1` = 2 ms, `T_K3` = 20 ms, `T_K4` = 5 ms (the paper
+//! prints none). The fastest constant path speed with no current over 18 A on this contour is
+//! 14 mm/s (17.9 A; 14.5 mm/s gives 18.1 A).
+//!
+//! **Constant V0 fails hard.** In up milling the cut pulls the tool into the stock, on top of
+//! gravity: once the shoulder is clipped at 20 A the arm sags into the part, the cut deepens, the
+//! load grows, and the tool is dragged in until the deep zone ends (tens of mm). Beyond a few mm the
+//! figures leave the process model's validity (at most a full-width slot, no resistance to
+//! plunging): they show that the path is lost, not by how much a real cell would gouge.
+
+mod figures;
+mod spindle;
+
+use super::{joint, link, Machine, MachineError};
+use crate::mechanism::Mechanism;
+use crate::physics::{Load, MechanismState};
+use figures::{Figures, Sample};
+use models::arm_milling::{CutLoad, Cutter, CutterParams, MillingMode, Stock};
+use models::arm_path::{Contour, ContourPath};
+use models::drive::{Drive, DriveParams};
+use serde::Deserialize;
+use spindle::{Spindle, SpindleParams};
+
+const MACHINE: &str = "arm";
+const JOINTS: [&str; 3] = ["shoulder", "elbow", "wrist"];
+/// Lever of the couples that carry the spindle torques, m.
+const COUPLE_ARM: f64 = 0.01;
+
+/// `[process.drives]`: one drive per arm joint.
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+struct ArmDrives {
+    shoulder: DriveParams,
+    elbow: DriveParams,
+    wrist: DriveParams,
+}
+
+/// A 48 V servo motor of `torque_constant` N·m/A behind a gear of `gear_ratio`, 20 A peak.
+fn servo(torque_constant: f64, gear_ratio: f64) -> DriveParams {
+    DriveParams {
+        torque_constant,
+        back_emf_constant: torque_constant,
+        resistance: 0.3,
+        inductance: 0.5e-3,
+        gear_ratio,
+        supply_voltage: 48.0,
+        current_limit: 20.0,
+        current_bandwidth: 2000.0,
+        current_loop_period: 1e-4,
+    }
+}
+
+impl Default for ArmDrives {
+    /// Shoulder 0.035 N·m/A × 120, elbow 0.025 × 120, wrist 0.02 × 50 (model notes above).
+    fn default() -> Self {
+        Self {
+            shoulder: servo(0.035, 120.0),
+            elbow: servo(0.025, 120.0),
+            wrist: servo(0.02, 50.0),
+        }
+    }
+}
+
+/// The `[process]` table of an arm scenario (SI units).
+#[derive(Debug, Clone, Deserialize, Default)]
+#[serde(deny_unknown_fields, default)]
+struct ProcessParams {
+    /// The part contour the tool must follow (the robot program's, unless a scenario changes one).
+    contour: Contour,
+    stock: Stock,
+    cutter: CutterParams,
+    spindle: SpindleParams,
+    drives: ArmDrives,
+    /// Permissible motor current, A, the figures compare peaks with (default 18 A).
+    current_tolerance: Option<f64>,
+    /// The figures' deep zone: where the stock is deeper than this, m (default: half way between
+    /// the shallowest cut and the deepest).
+    deep_zone_depth: Option<f64>,
+}
+
+/// The paper's permissible motor current (its Fig. 2), A.
+const PAPER_CURRENT_TOLERANCE: f64 = 18.0;
+
+pub struct Arm {
+    joints: [usize; 3],
+    spindle_joint: usize,
+    hand: usize,
+    cutter_link: usize,
+    drives: Vec<Drive>,
+    spindle: Spindle,
+    contour: ContourPath,
+    stock: Stock,
+    cutter: Cutter,
+    deep_zone_depth: f64,
+    joint_speeds: [f64; 3],
+    spindle_speed: f64,
+    cut: CutLoad,
+    cut_force: [f64; 2],
+    spindle_torque: f64,
+    figures: Figures,
+    time: f64,
+}
+
+impl Arm {
+    pub fn new(mechanism: &Mechanism, process: &toml::Table) -> Result<Self, MachineError> {
+        let bad = |reason: String| MachineError::BadParameters {
+            machine: MACHINE.into(),
+            reason,
+        };
+        let params: ProcessParams = process
+            .clone()
+            .try_into()
+            .map_err(|e: toml::de::Error| bad(e.message().to_string()))?;
+        let joints = [
+            joint(MACHINE, mechanism, JOINTS[0])?,
+            joint(MACHINE, mechanism, JOINTS[1])?,
+            joint(MACHINE, mechanism, JOINTS[2])?,
+        ];
+        let drive_params = [
+            params.drives.shoulder,
+            params.drives.elbow,
+            params.drives.wrist,
+        ];
+        let mut drives = Vec::new();
+        for ((&j, name), drive) in joints.iter().zip(JOINTS).zip(drive_params) {
+            let drive = Drive::new(drive).map_err(|e| bad(format!("drives.{name}: {e}")))?;
+            let peak = drive.params().peak_torque();
+            match mechanism.joints[j].effort_limit {
+                Some(limit) if (limit - peak).abs() <= 0.01 * peak => {}
+                other => {
+                    return Err(bad(format!(
+                        "drives.{name}: the URDF effort limit ({other:?} N·m) must be the drive's \
+                         peak joint torque G·k_t·I_max = {peak} N·m"
+                    )))
+                }
+            }
+            drives.push(drive);
+        }
+        let spindle_joint = joint(MACHINE, mechanism, "spindle")?;
+        if mechanism.joints[spindle_joint].effort_limit.is_some() {
+            return Err(bad(
+                "the spindle joint must not be actuated in the URDF: its own drive turns it".into(),
+            ));
+        }
+        let cutter_link = link(MACHINE, mechanism, "cutter")?;
+        let rotor_inertia = mechanism.links[cutter_link].inertial.map_or(0.0, |i| i.izz);
+        let spindle = Spindle::new(params.spindle, rotor_inertia).map_err(bad)?;
+        let contour = ContourPath::new(&params.contour).map_err(|e| bad(e.to_string()))?;
+        let cutter = Cutter::new(params.cutter).map_err(|e| bad(e.to_string()))?;
+        params
+            .stock
+            .validate(params.cutter.diameter)
+            .map_err(|e| bad(e.to_string()))?;
+        let tolerance = params.current_tolerance.unwrap_or(PAPER_CURRENT_TOLERANCE);
+        if !(tolerance > 0.0 && tolerance.is_finite()) {
+            return Err(bad(format!(
+                "current_tolerance must be finite and > 0 (got {tolerance})"
+            )));
+        }
+        let shallowest = params
+            .stock
+            .depth
+            .iter()
+            .map(|p| p[1])
+            .filter(|&d| d > 0.0)
+            .fold(f64::INFINITY, f64::min);
+        let deep_zone_depth = params
+            .deep_zone_depth
+            .unwrap_or((shallowest + params.stock.deepest()) / 2.0);
+        let motors = JOINTS
+            .iter()
+            .chain(["spindle"].iter())
+            .map(|m| m.to_string())
+            .collect();
+        Ok(Self {
+            joints,
+            spindle_joint,
+            hand: link(MACHINE, mechanism, "hand")?,
+            cutter_link,
+            drives,
+            spindle,
+            figures: Figures::new(motors, tolerance, contour.length()),
+            contour,
+            stock: params.stock,
+            cutter,
+            deep_zone_depth,
+            joint_speeds: [0.0; 3],
+            spindle_speed: 0.0,
+            cut: CutLoad::default(),
+            cut_force: [0.0; 2],
+            spindle_torque: 0.0,
+            time: 0.0,
+        })
+    }
+
+    fn currents(&self) -> [f64; 4] {
+        [
+            self.drives[0].current(),
+            self.drives[1].current(),
+            self.drives[2].current(),
+            self.spindle.drive.current(),
+        ]
+    }
+}
+
+/// A torque `torque` (N·m, counter-clockwise) on `link` as a couple about `centre`.
+fn couple(link: usize, centre: [f64; 2], torque: f64, loads: &mut Vec<Load>) {
+    let f = torque / (2.0 * COUPLE_ARM);
+    loads.push(Load {
+        link,
+        force: [0.0, f],
+        point: [centre[0] + COUPLE_ARM, centre[1]],
+    });
+    loads.push(Load {
+        link,
+        force: [0.0, -f],
+        point: [centre[0] - COUPLE_ARM, centre[1]],
+    });
+}
+
+impl Machine for Arm {
+    fn signal_names(&self) -> Vec<String> {
+        [
+            "shoulder_current",
+            "elbow_current",
+            "wrist_current",
+            "spindle_current",
+            "tool_x",
+            "tool_y",
+        ]
+        .map(String::from)
+        .to_vec()
+    }
+
+    fn diagnostic_names(&self) -> Vec<String> {
+        [
+            "path_deviation",
+            "path_position",
+            "radial_depth",
+            "cutting_force",
+            "spindle_load_torque",
+        ]
+        .map(String::from)
+        .to_vec()
+    }
+
+    fn measure(
+        &mut self,
+        time: f64,
+        state: &MechanismState,
+        signals: &mut [f64],
+        diagnostics: &mut [f64],
+    ) {
+        let dt = time - self.time;
+        self.time = time;
+        for (speed, &j) in self.joint_speeds.iter_mut().zip(&self.joints) {
+            *speed = state.joint_velocities[j];
+        }
+        self.spindle_speed = state.joint_velocities[self.spindle_joint];
+        let tool = state.link_poses[self.cutter_link];
+        let velocity = state.link_velocities[self.cutter_link];
+        let seen = self.contour.project([tool.x, tool.y]);
+        let stock = self.stock.depth_at(seen.along);
+        let radial_depth = if stock > 0.0 {
+            (stock + seen.right_offset).max(0.0)
+        } else {
+            0.0
+        };
+        let path_speed = velocity[0] * seen.tangent[0] + velocity[1] * seen.tangent[1];
+        // Counter-clockwise with the stock on the right of travel: up milling.
+        let mode = if self.spindle_speed >= 0.0 {
+            MillingMode::Up
+        } else {
+            MillingMode::Down
+        };
+        self.cut = self
+            .cutter
+            .load(mode, radial_depth, path_speed, self.spindle_speed);
+        let right = [seen.tangent[1], -seen.tangent[0]];
+        self.cut_force = [
+            self.cut.along * seen.tangent[0] + self.cut.towards_stock * right[0],
+            self.cut.along * seen.tangent[1] + self.cut.towards_stock * right[1],
+        ];
+        let currents = self.currents();
+        signals.copy_from_slice(&[
+            currents[0],
+            currents[1],
+            currents[2],
+            currents[3],
+            tool.x,
+            tool.y,
+        ]);
+        diagnostics.copy_from_slice(&[
+            seen.distance,
+            seen.along,
+            radial_depth,
+            self.cut_force[0].hypot(self.cut_force[1]),
+            self.cut.torque,
+        ]);
+        let at_limit = [
+            self.drives[0].at_limit(),
+            self.drives[1].at_limit(),
+            self.drives[2].at_limit(),
+            self.spindle.drive.at_limit(),
+        ];
+        self.figures.observe(&Sample {
+            time,
+            dt,
+            along: seen.along,
+            deviation: seen.distance,
+            path_speed,
+            in_deep_zone: stock > self.deep_zone_depth,
+            currents: &currents.map(f64::abs),
+            at_limit: &at_limit,
+        });
+    }
+
+    fn drive(&mut self, dt: f64, commanded: &[f64], applied: &mut [f64]) {
+        for (a, drive) in self.drives.iter_mut().enumerate() {
+            applied[a] = drive.step(dt, commanded[a], self.joint_speeds[a]);
+        }
+        self.spindle_torque = self.spindle.step(dt, self.spindle_speed);
+    }
+
+    fn loads(&mut self, _time: f64, state: &MechanismState, loads: &mut Vec<Load>) {
+        let tool = state.link_poses[self.cutter_link];
+        let centre = [tool.x, tool.y];
+        couple(self.cutter_link, centre, self.spindle_torque, loads);
+        couple(self.hand, centre, -self.spindle_torque, loads);
+        if self.cut.torque != 0.0 || self.cut_force != [0.0; 2] {
+            loads.push(Load {
+                link: self.cutter_link,
+                force: self.cut_force,
+                point: centre,
+            });
+            let resisting = -self.spindle.set_speed().signum() * self.cut.torque;
+            couple(self.cutter_link, centre, resisting, loads);
+        }
+    }
+
+    fn metrics(&self) -> Vec<(String, f64)> {
+        let mut metrics = self.figures.metrics(self.time);
+        metrics.push(("deep_zone_depth".into(), self.deep_zone_depth));
+        metrics
+    }
+}

@@ -1,0 +1,307 @@
+//! A linear-motor feed axis of a micro-milling machine, after Rubio, Ibeas & Luo ("P-PI and super
+//! twisting sliding mode control schemes comparison for high-precision CNC machining"; their
+//! equations restart in each section, cited here as II.(n)): a table on one prismatic joint
+//! `table`, `m ẍ + b ẋ = F` (II.(1)) with m and b in the URDF, driven through the chain of their
+//! Fig. 1, and loaded by the micro-milling cut of [`models::micromilling`] (II.(2)–(4)).
+//!
+//! **Drive.** The controller's force command F* (N) is the amplifier's input through the voltage
+//! `u_c = F*/(k_t·K_a)`; the current amplifier gives `i = k_t·u_c`, limited to ±`current_limit`, and
+//! the motor pushes the table with `F_m = K_a·i`. The amplifier is taken as static (its current loop
+//! far faster than the position loop), as in the paper's model. Defaults: the paper's
+//! `k_t` = 2 A/V and `K_a` = 50 N/A (§V); a peak current of 10 A, the order of a linear motor of this
+//! force constant (500 N peak, which the URDF's `<limit effort>` matches). The current is the
+//! machine's measured signal `table_current` (A), the current that flowed over the last step.
+//!
+//! **Cut.** With `[process] cutting = true` the cut's force on the table along its axis,
+//! [`MicroMillingCut::force_on_axis`] at the step's start time and the table's velocity, acts as a
+//! load for the step and is recorded as the diagnostic `cutting_force` (N; zero without the cut).
+//! `[process.cut]` holds its parameters (SI; defaults: the paper's cutting conditions).
+//!
+//! **Tracking.** The machine judges the axis against the programmed path `[process.path]` (same
+//! format as the scenario's `[reference]`, and given the same value by the built-in scenarios: the
+//! interpolator hands the controller the programmed path unchanged). Every physics step from
+//! `metrics_from` (s, default 0: the start transient is part of the paper's Table I) it takes the
+//! true position error `x_path − x` and velocity error `ẋ_path − ẋ`, recorded as diagnostics, and
+//! reports their largest magnitude and standard deviation — the columns of Table I, in m and m/s.
+
+use super::{joint, Machine, MachineError};
+use crate::mechanism::{JointMotion, Mechanism, Pose2};
+use crate::physics::{Load, MechanismState};
+use models::micromilling::{MicroMillingCut, MicroMillingParams};
+use models::reference::Reference;
+use serde::Deserialize;
+
+const MACHINE: &str = "feed_axis";
+const TABLE_JOINT: &str = "table";
+
+/// The `[process]` table of a feed-axis scenario (SI units).
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+struct ProcessParams {
+    /// The micro-milling cut loads the table.
+    cutting: bool,
+    /// The cut's parameters.
+    cut: MicroMillingParams,
+    /// k_t, A/V.
+    amplifier_gain: f64,
+    /// K_a, N/A.
+    force_constant: f64,
+    /// Peak current of the amplifier, A.
+    current_limit: f64,
+    /// The programmed path; absent: no tracking figures.
+    path: Option<Reference>,
+    /// Start of the window of the tracking figures, s.
+    metrics_from: f64,
+}
+
+impl Default for ProcessParams {
+    fn default() -> Self {
+        Self {
+            cutting: false,
+            cut: MicroMillingParams::default(),
+            amplifier_gain: 2.0,
+            force_constant: 50.0,
+            current_limit: 10.0,
+            path: None,
+            metrics_from: 0.0,
+        }
+    }
+}
+
+/// Current amplifier and linear motor: force command → voltage → current (limited) → force.
+#[derive(Debug, Clone)]
+struct Drive {
+    amplifier_gain: f64,
+    force_constant: f64,
+    current_limit: f64,
+    current: f64,
+    peak_current: f64,
+    steps: usize,
+    limited_steps: usize,
+}
+
+impl Drive {
+    /// The force the motor applies for `force_command` (N), updating the current.
+    fn force(&mut self, force_command: f64) -> f64 {
+        let voltage = force_command / (self.amplifier_gain * self.force_constant);
+        let current = self.amplifier_gain * voltage;
+        self.current = current.clamp(-self.current_limit, self.current_limit);
+        self.peak_current = self.peak_current.max(self.current.abs());
+        self.steps += 1;
+        self.limited_steps += usize::from(self.current != current);
+        self.force_constant * self.current
+    }
+}
+
+/// Largest magnitude and standard deviation of a signal, updated sample by sample (Welford).
+#[derive(Debug, Clone, Copy, Default)]
+struct ErrorStatistics {
+    count: usize,
+    mean: f64,
+    sum_of_squares: f64,
+    max: f64,
+}
+
+impl ErrorStatistics {
+    fn add(&mut self, value: f64) {
+        self.count += 1;
+        let delta = value - self.mean;
+        self.mean += delta / self.count as f64;
+        self.sum_of_squares += delta * (value - self.mean);
+        self.max = self.max.max(value.abs());
+    }
+
+    fn sigma(&self) -> f64 {
+        (self.sum_of_squares / self.count.max(1) as f64).sqrt()
+    }
+}
+
+/// The programmed path and the errors against it.
+#[derive(Debug, Clone)]
+struct Tracking {
+    path: Reference,
+    from: f64,
+    position: ErrorStatistics,
+    velocity: ErrorStatistics,
+}
+
+pub struct FeedAxis {
+    table_joint: usize,
+    table_link: usize,
+    /// The link carrying the guide-ways, the joint frame on it and the axis in that frame.
+    guide_link: usize,
+    guide_frame: Pose2,
+    axis: [f64; 2],
+    /// Index of the table's actuator among the actuated joints.
+    table_actuator: usize,
+    drive: Drive,
+    cut: Option<MicroMillingCut>,
+    cutting_force: f64,
+    cutting_force_peak: f64,
+    tracking: Option<Tracking>,
+}
+
+impl FeedAxis {
+    pub fn new(mechanism: &Mechanism, process: &toml::Table) -> Result<Self, MachineError> {
+        let bad = |reason: String| MachineError::BadParameters {
+            machine: MACHINE.into(),
+            reason,
+        };
+        let params: ProcessParams = process
+            .clone()
+            .try_into()
+            .map_err(|e: toml::de::Error| bad(e.message().trim().to_string()))?;
+        for (name, value) in [
+            ("amplifier_gain", params.amplifier_gain),
+            ("force_constant", params.force_constant),
+            ("current_limit", params.current_limit),
+        ] {
+            if !(value > 0.0 && value.is_finite()) {
+                return Err(bad(format!("{name} must be finite and > 0, got {value}")));
+            }
+        }
+        if !(params.metrics_from >= 0.0 && params.metrics_from.is_finite()) {
+            return Err(bad(format!(
+                "metrics_from must be finite and ≥ 0, got {}",
+                params.metrics_from
+            )));
+        }
+        if let Some(path) = &params.path {
+            path.validate().map_err(|e| bad(format!("path: {e}")))?;
+        }
+        let cut = params
+            .cutting
+            .then(|| MicroMillingCut::new(params.cut))
+            .transpose()
+            .map_err(|e| bad(format!("cut: {e}")))?;
+
+        let table_joint = joint(MACHINE, mechanism, TABLE_JOINT)?;
+        let table = &mechanism.joints[table_joint];
+        let JointMotion::Prismatic { axis } = table.motion else {
+            return Err(MachineError::MissingPart {
+                machine: MACHINE.into(),
+                what: "prismatic joint",
+                name: TABLE_JOINT.into(),
+            });
+        };
+        let table_actuator = mechanism
+            .actuated_joints()
+            .iter()
+            .position(|&j| j == table_joint)
+            .ok_or_else(|| MachineError::MissingPart {
+                machine: MACHINE.into(),
+                what: "actuated joint (<limit effort> > 0)",
+                name: TABLE_JOINT.into(),
+            })?;
+        Ok(Self {
+            table_joint,
+            table_link: table.child,
+            guide_link: table.parent,
+            guide_frame: table.origin,
+            axis,
+            table_actuator,
+            drive: Drive {
+                amplifier_gain: params.amplifier_gain,
+                force_constant: params.force_constant,
+                current_limit: params.current_limit,
+                current: 0.0,
+                peak_current: 0.0,
+                steps: 0,
+                limited_steps: 0,
+            },
+            cut,
+            cutting_force: 0.0,
+            cutting_force_peak: 0.0,
+            tracking: params.path.map(|path| Tracking {
+                path,
+                from: params.metrics_from,
+                position: ErrorStatistics::default(),
+                velocity: ErrorStatistics::default(),
+            }),
+        })
+    }
+}
+
+impl Machine for FeedAxis {
+    fn signal_names(&self) -> Vec<String> {
+        vec!["table_current".into()]
+    }
+
+    fn diagnostic_names(&self) -> Vec<String> {
+        let mut names = vec!["cutting_force".to_string()];
+        if self.tracking.is_some() {
+            names.extend(["position_error".into(), "velocity_error".into()]);
+        }
+        names
+    }
+
+    fn measure(
+        &mut self,
+        time: f64,
+        state: &MechanismState,
+        signals: &mut [f64],
+        diagnostics: &mut [f64],
+    ) {
+        let position = state.joint_positions[self.table_joint];
+        let velocity = state.joint_velocities[self.table_joint];
+        signals[0] = self.drive.current;
+        self.cutting_force = self
+            .cut
+            .as_ref()
+            .map_or(0.0, |cut| cut.force_on_axis(time, velocity));
+        self.cutting_force_peak = self.cutting_force_peak.max(self.cutting_force.abs());
+        diagnostics[0] = self.cutting_force;
+        if let Some(tracking) = self.tracking.as_mut() {
+            let target = tracking.path.sample(time);
+            let position_error = target.position - position;
+            let velocity_error = target.rate - velocity;
+            diagnostics[1] = position_error;
+            diagnostics[2] = velocity_error;
+            if time >= tracking.from {
+                tracking.position.add(position_error);
+                tracking.velocity.add(velocity_error);
+            }
+        }
+    }
+
+    fn drive(&mut self, _dt: f64, commanded: &[f64], applied: &mut [f64]) {
+        applied.copy_from_slice(commanded);
+        applied[self.table_actuator] = self.drive.force(commanded[self.table_actuator]);
+    }
+
+    fn loads(&mut self, _time: f64, state: &MechanismState, loads: &mut Vec<Load>) {
+        if self.cutting_force == 0.0 {
+            return;
+        }
+        // Along the table's axis in the world, as the physics applies the motor force.
+        let frame = state.link_poses[self.guide_link].compose(&self.guide_frame);
+        let [ax, ay] = frame.rotate(self.axis[0], self.axis[1]);
+        let table = state.link_poses[self.table_link];
+        loads.push(Load {
+            link: self.table_link,
+            force: [ax * self.cutting_force, ay * self.cutting_force],
+            point: [table.x, table.y],
+        });
+    }
+
+    fn metrics(&self) -> Vec<(String, f64)> {
+        let mut metrics = Vec::new();
+        if let Some(tracking) = &self.tracking {
+            metrics.extend([
+                ("position_error_max".into(), tracking.position.max),
+                ("position_error_sigma".into(), tracking.position.sigma()),
+                ("velocity_error_max".into(), tracking.velocity.max),
+                ("velocity_error_sigma".into(), tracking.velocity.sigma()),
+            ]);
+        }
+        metrics.push(("peak_current".into(), self.drive.peak_current));
+        metrics.push((
+            "current_limited_fraction".into(),
+            self.drive.limited_steps as f64 / self.drive.steps.max(1) as f64,
+        ));
+        if self.cut.is_some() {
+            metrics.push(("cutting_force_peak".into(), self.cutting_force_peak));
+        }
+        metrics
+    }
+}

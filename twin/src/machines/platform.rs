@@ -1,0 +1,403 @@
+//! The two-wheeled mobile platform seen from above (Kalinski et al. 2013, §4): a chassis on a
+//! planar base, two driven wheels and a swivel caster, each wheel a `<wheel>` of the URDF.
+//!
+//! Per physics step the machine
+//! - drives each driven wheel through its DC gear motor ([`motor`]),
+//! - integrates every wheel's spin (implicit in the tyre force, which is stiff at low speed),
+//! - applies the tyre forces of `models::tyre` at the contacts as loads on the wheels' links,
+//!   with the static normal loads from the centre of mass and the contacts (`floor_gravity`).
+//!
+//! The controller measures the wheel encoders (`<wheel>.position`), the motor currents
+//! (`<wheel>.current`) and the desired motion of point H from the path (`path_x`, `path_y`,
+//! `path_vx`, `path_vy`, `path_heading`). The true pose of H (the "direct measurement") is recorded
+//! as diagnostics only, with Δβ (heading against the desired motion's heading), the distance of H
+//! from the path, and each wheel's slip.
+//!
+//! The desired heading β̄ is that of the desired motion: the heading the platform has when H moves
+//! exactly along the path, `dβ̄/dt = (−sin β̄·ẋ̄_H + cos β̄·ẏ̄_H)/d` (d: H ahead of the axle),
+//! integrated from the path's start heading. On a straight it settles on the path's heading.
+
+mod motor;
+
+use super::{link, Machine, MachineError};
+use crate::mechanism::{Mechanism, Pose2};
+use crate::physics::{Load, MechanismState};
+use controllers::{Actuator, EffortKind};
+use models::platform_path::{Path, PathSpec};
+use models::tyre::{static_normal_loads, TyreParams};
+use motor::{Motor, MotorParams};
+use serde::Deserialize;
+
+/// The `[process]` table of a platform scenario.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct ProcessParams {
+    /// The link the base carries.
+    #[serde(default = "default_chassis")]
+    chassis: String,
+    /// Point H in the chassis frame, m.
+    #[serde(default = "default_point_h")]
+    point_h: [f64; 2],
+    /// Gravity pressing the wheels on the floor, m/s² (the simulated plane is the floor).
+    #[serde(default = "default_floor_gravity")]
+    floor_gravity: f64,
+    /// Tyre–floor μ for every wheel instead of the URDF's (a slippery floor).
+    friction: Option<f64>,
+    #[serde(default)]
+    tyre: TyreParams,
+    #[serde(default)]
+    motor: MotorParams,
+    path: PathSpec,
+}
+
+fn default_chassis() -> String {
+    "chassis".into()
+}
+
+fn default_point_h() -> [f64; 2] {
+    [0.1, 0.0]
+}
+
+fn default_floor_gravity() -> f64 {
+    9.81
+}
+
+/// One wheel in operation.
+struct WheelState {
+    name: String,
+    link: usize,
+    origin: Pose2,
+    heading: [f64; 2],
+    radius: f64,
+    friction: f64,
+    /// Spin inertia with the reflected rotor for a driven wheel, kg·m².
+    inertia: f64,
+    normal_load: f64,
+    /// Index among the actuators, for a driven wheel.
+    actuator: Option<usize>,
+    motor: Motor,
+    drive_torque: f64,
+    spin: f64,
+    angle: f64,
+    slip: [f64; 2],
+}
+
+pub struct Platform {
+    chassis: usize,
+    point_h: [f64; 2],
+    tyre: TyreParams,
+    motor: MotorParams,
+    path: Path,
+    wheels: Vec<WheelState>,
+    actuators: Vec<Actuator>,
+    dt: f64,
+    last_time: Option<f64>,
+    desired_heading: f64,
+    nearest_s: f64,
+    figures: Figures,
+}
+
+/// Running figures of a run.
+#[derive(Default)]
+struct Figures {
+    samples: usize,
+    heading_error_max: f64,
+    heading_error_square_sum: f64,
+    heading_error: f64,
+    path_error_max: f64,
+    path_error_square_sum: f64,
+    final_position_error: f64,
+    slip_max: f64,
+    current_max: f64,
+    position_h: [f64; 2],
+}
+
+impl Platform {
+    pub fn new(mechanism: &Mechanism, process: &toml::Table) -> Result<Self, MachineError> {
+        let bad = |reason: String| MachineError::BadParameters {
+            machine: "platform".into(),
+            reason,
+        };
+        let params: ProcessParams = controllers::registry::from_table(process).map_err(bad)?;
+        params.tyre.validate().map_err(|e| bad(e.to_string()))?;
+        params.motor.validate().map_err(bad)?;
+        if !(params.floor_gravity.is_finite() && params.floor_gravity > 0.0) {
+            return Err(bad(format!(
+                "floor_gravity must be > 0, got {}",
+                params.floor_gravity
+            )));
+        }
+        if params.point_h.iter().any(|v| !v.is_finite()) || params.point_h[0] <= 0.0 {
+            return Err(bad(
+                "point_h must be ahead of the axle (x > 0): otherwise H cannot be steered".into(),
+            ));
+        }
+        if let Some(mu) = params.friction.filter(|mu| !(mu.is_finite() && *mu > 0.0)) {
+            return Err(bad(format!("friction must be > 0, got {mu}")));
+        }
+        let chassis = link("platform", mechanism, &params.chassis)?;
+        if mechanism.wheels.iter().filter(|w| w.effort_limit.is_some()).count() != 2 {
+            return Err(bad("the URDF must declare exactly two driven <wheel>s".into()));
+        }
+        let poses = mechanism.zero_pose();
+        let start_pose = poses[chassis];
+        let start = start_pose.apply(params.point_h[0], params.point_h[1]);
+        let path =
+            Path::new(&params.path, start, start_pose.angle).map_err(|e| bad(e.to_string()))?;
+
+        let (mut mass, mut moment) = (0.0, [0.0, 0.0]);
+        for (pose, link) in poses.iter().zip(&mechanism.links) {
+            if let Some(inertial) = link.inertial {
+                let [x, y] = pose.apply(inertial.centre_of_mass[0], inertial.centre_of_mass[1]);
+                mass += inertial.mass;
+                moment = [moment[0] + inertial.mass * x, moment[1] + inertial.mass * y];
+            }
+        }
+        let contacts: Vec<[f64; 2]> = mechanism
+            .wheels
+            .iter()
+            .map(|w| poses[w.link].apply(w.origin.x, w.origin.y))
+            .collect();
+        let loads = static_normal_loads(
+            mass,
+            [moment[0] / mass, moment[1] / mass],
+            &contacts,
+            params.floor_gravity,
+        )
+        .map_err(|e| bad(e.to_string()))?;
+
+        let mut actuators = Vec::new();
+        let mut wheels = Vec::new();
+        for (wheel, normal_load) in mechanism.wheels.iter().zip(loads) {
+            let actuator = wheel.effort_limit.map(|limit| {
+                actuators.push(Actuator {
+                    joint: wheel.name.clone(),
+                    kind: EffortKind::Torque,
+                    effort_limit: limit,
+                });
+                actuators.len() - 1
+            });
+            let reflected = if actuator.is_some() {
+                params.motor.reflected_inertia()
+            } else {
+                0.0
+            };
+            let [hx, hy] = wheel.heading();
+            wheels.push(WheelState {
+                name: wheel.name.clone(),
+                link: wheel.link,
+                origin: wheel.origin,
+                heading: wheel.origin.rotate(hx, hy),
+                radius: wheel.radius,
+                friction: params.friction.unwrap_or(wheel.friction),
+                inertia: wheel.spin_inertia + reflected,
+                normal_load,
+                actuator,
+                motor: Motor::default(),
+                drive_torque: 0.0,
+                spin: 0.0,
+                angle: 0.0,
+                slip: [0.0; 2],
+            });
+        }
+        Ok(Self {
+            chassis,
+            point_h: params.point_h,
+            tyre: params.tyre,
+            motor: params.motor,
+            desired_heading: start_pose.angle,
+            path,
+            wheels,
+            actuators,
+            dt: 0.0,
+            last_time: None,
+            nearest_s: 0.0,
+            figures: Figures::default(),
+        })
+    }
+
+    fn driven(&self) -> impl Iterator<Item = &WheelState> {
+        self.wheels.iter().filter(|w| w.actuator.is_some())
+    }
+}
+
+/// Wraps an angle to (−π, π].
+fn wrap(angle: f64) -> f64 {
+    let wrapped = angle.rem_euclid(std::f64::consts::TAU);
+    if wrapped > std::f64::consts::PI {
+        wrapped - std::f64::consts::TAU
+    } else {
+        wrapped
+    }
+}
+
+impl Machine for Platform {
+    fn signal_names(&self) -> Vec<String> {
+        let mut names: Vec<String> = self
+            .actuators
+            .iter()
+            .flat_map(|a| [format!("{}.position", a.joint), format!("{}.current", a.joint)])
+            .collect();
+        names.extend(
+            ["path_x", "path_y", "path_vx", "path_vy", "path_heading"].map(String::from),
+        );
+        names
+    }
+
+    fn diagnostic_names(&self) -> Vec<String> {
+        let mut names: Vec<String> = [
+            "pose.x_h",
+            "pose.y_h",
+            "pose.heading",
+            "desired_heading",
+            "heading_error",
+            "path_error",
+        ]
+        .map(String::from)
+        .to_vec();
+        for wheel in &self.wheels {
+            for quantity in ["longitudinal_slip", "lateral_slip", "spin_rate"] {
+                names.push(format!("{}.{quantity}", wheel.name));
+            }
+        }
+        names
+    }
+
+    fn extra_actuators(&self) -> Vec<Actuator> {
+        self.actuators.clone()
+    }
+
+    fn measure(
+        &mut self,
+        time: f64,
+        state: &MechanismState,
+        signals: &mut [f64],
+        diagnostics: &mut [f64],
+    ) {
+        let chassis = state.link_poses[self.chassis];
+        let h = chassis.apply(self.point_h[0], self.point_h[1]);
+        let desired = self.path.sample(time);
+        let step = time - self.last_time.unwrap_or(time);
+        self.last_time = Some(time);
+        let (s, c) = self.desired_heading.sin_cos();
+        self.desired_heading += step * (-s * desired.velocity[0] + c * desired.velocity[1])
+            / self.point_h[0];
+
+        let mut k = 0;
+        for wheel in self.driven() {
+            signals[k] = wheel.angle;
+            signals[k + 1] = wheel.motor.current;
+            k += 2;
+        }
+        signals[k..].copy_from_slice(&[
+            desired.point.position[0],
+            desired.point.position[1],
+            desired.velocity[0],
+            desired.velocity[1],
+            desired.point.heading,
+        ]);
+
+        let heading_error = wrap(chassis.angle - self.desired_heading);
+        let (nearest, path_error) = self.path.nearest(h, self.nearest_s);
+        self.nearest_s = nearest;
+        diagnostics[..6].copy_from_slice(&[
+            h[0],
+            h[1],
+            chassis.angle,
+            self.desired_heading,
+            heading_error,
+            path_error,
+        ]);
+        for (w, wheel) in self.wheels.iter().enumerate() {
+            diagnostics[6 + 3 * w..9 + 3 * w].copy_from_slice(&[
+                wheel.slip[0],
+                wheel.slip[1],
+                wheel.spin,
+            ]);
+        }
+
+        let f = &mut self.figures;
+        f.samples += 1;
+        f.heading_error = heading_error;
+        f.heading_error_max = f.heading_error_max.max(heading_error.abs());
+        f.heading_error_square_sum += heading_error * heading_error;
+        f.path_error_max = f.path_error_max.max(path_error);
+        f.path_error_square_sum += path_error * path_error;
+        let end = desired.point.position;
+        f.final_position_error = (h[0] - end[0]).hypot(h[1] - end[1]);
+        f.position_h = h;
+        for wheel in self.wheels.iter().filter(|w| w.actuator.is_some()) {
+            f.slip_max = f.slip_max.max(wheel.slip[0].hypot(wheel.slip[1]));
+            f.current_max = f.current_max.max(wheel.motor.current.abs());
+        }
+    }
+
+    fn drive(&mut self, dt: f64, commanded: &[f64], applied: &mut [f64]) {
+        self.dt = dt;
+        for wheel in &mut self.wheels {
+            if let Some(a) = wheel.actuator {
+                wheel.drive_torque = wheel.motor.step(&self.motor, dt, commanded[a], wheel.spin);
+                applied[a] = wheel.drive_torque;
+            }
+        }
+    }
+
+    fn loads(&mut self, _time: f64, state: &MechanismState, loads: &mut Vec<Load>) {
+        let dt = self.dt;
+        let damping = self.motor.gear_damping;
+        for wheel in &mut self.wheels {
+            let pose = state.link_poses[wheel.link];
+            let contact = pose.apply(wheel.origin.x, wheel.origin.y);
+            let omega = state.link_angular_velocities[wheel.link];
+            let [vx, vy] = state.link_velocities[wheel.link];
+            let velocity = [
+                vx - omega * (contact[1] - pose.y),
+                vy + omega * (contact[0] - pose.x),
+            ];
+            let [fx, fy] = pose.rotate(wheel.heading[0], wheel.heading[1]);
+            let along = [
+                velocity[0] * fx + velocity[1] * fy,
+                -velocity[0] * fy + velocity[1] * fx,
+            ];
+            let (n, mu, r) = (wheel.normal_load, wheel.friction, wheel.radius);
+            let friction = if wheel.actuator.is_some() { damping } else { 0.0 };
+            // Backward Euler on I·ω̇ = τ − b·ω − r·F_x(ω), F_x linearised about the present spin.
+            let now = self.tyre.contact(wheel.spin, r, along, n, mu);
+            let k = now.stiffness_per_spin.max(0.0);
+            let inertia = wheel.inertia;
+            wheel.spin = (wheel.spin
+                + dt * (wheel.drive_torque - r * now.force[0] + r * k * wheel.spin) / inertia)
+                / (1.0 + dt * (friction + r * k) / inertia);
+            wheel.angle += dt * wheel.spin;
+            let after = self.tyre.contact(wheel.spin, r, along, n, mu);
+            wheel.slip = after.slip;
+            let [f_long, f_lat] = after.force;
+            loads.push(Load {
+                link: wheel.link,
+                force: [f_long * fx - f_lat * fy, f_long * fy + f_lat * fx],
+                point: contact,
+            });
+        }
+    }
+
+    fn metrics(&self) -> Vec<(String, f64)> {
+        let f = &self.figures;
+        let n = f.samples.max(1) as f64;
+        vec![
+            ("heading_error_max".into(), f.heading_error_max),
+            (
+                "heading_error_rms".into(),
+                (f.heading_error_square_sum / n).sqrt(),
+            ),
+            ("heading_error_final".into(), f.heading_error),
+            ("path_error_max".into(), f.path_error_max),
+            ("path_error_rms".into(), (f.path_error_square_sum / n).sqrt()),
+            ("final_position_error".into(), f.final_position_error),
+            ("final_x_h".into(), f.position_h[0]),
+            ("final_y_h".into(), f.position_h[1]),
+            ("wheel_slip_max".into(), f.slip_max),
+            ("motor_current_max".into(), f.current_max),
+            ("path_duration".into(), self.path.duration()),
+        ]
+    }
+}
