@@ -51,7 +51,8 @@ pub struct LatheForceParams {
     pub power_gains: Option<[f64; TOOLS]>,
     /// Forces the tools meet the part with, N; default the reference forces of eq (5).
     pub initial_forces: Option<[f64; TOOLS]>,
-    /// Slide masses the feed servos are designed for, kg.
+    /// Slide masses the feed servos are designed for, as seen along the feed (carriage plus the
+    /// drive's reflected rotor and screw), kg.
     pub slide_masses: [f64; TOOLS],
     /// p, the feed servos' cancelled fast pole, rad/s.
     pub servo_fast_pole: f64,
@@ -73,7 +74,7 @@ impl Default for LatheForceParams {
             consistency: Consistency::Report,
             power_gains: None,
             initial_forces: None,
-            slide_masses: [10.0, 10.0],
+            slide_masses: [200.0, 200.0],
             servo_fast_pole: 100.0,
             spindle_inertia: 0.08,
             spindle_bandwidth: 50.0,
@@ -537,7 +538,7 @@ mod tests {
         for (i, tau) in [0.05, 0.049].into_iter().enumerate() {
             let g = design.feed_servos[i];
             // b k_p = m / τ: the step response starts with slope 1/τ, as 1/(τ s + 1) does.
-            assert!((g.setpoint_weight * g.kp - 10.0 / tau).abs() < 1e-9);
+            assert!((g.setpoint_weight * g.kp - 200.0 / tau).abs() < 1e-9);
             // The zero of b k_p s + k_i sits on the fast pole −p.
             assert!((g.ki / (g.setpoint_weight * g.kp) - 100.0).abs() < 1e-9);
         }
@@ -545,7 +546,7 @@ mod tests {
         assert_eq!(design.spindle_ki, 2500.0 * 0.08);
     }
 
-    /// A 10 kg slide under a constant 2 kN cutting force (fed forward as measured) follows a
+    /// A 200 kg slide under a constant 2 kN cutting force (fed forward as measured) follows a
     /// step in speed command as 1 − e^(−t/τ). Both tools "cut" at P = P_max from the start, so
     /// the power loop closes at once and commands the nominal feeds.
     #[test]
@@ -572,8 +573,8 @@ mod tests {
                 let ideal = command * (1.0 - (-time / 0.05).exp());
                 worst = worst.max((slide[0] - ideal).abs() / command);
             }
-            slide[0] += dt * (efforts[1] - 2000.0) / 10.0;
-            slide[1] += dt * (efforts[2] - 1000.0) / 10.0;
+            slide[0] += dt * (efforts[1] - 2000.0) / 200.0;
+            slide[1] += dt * (efforts[2] - 1000.0) / 200.0;
         }
         assert!(worst < 0.01, "worst deviation from 1 − e^(−t/τ): {worst}");
         assert!((slide[0] - command).abs() < 1e-6 * command);

@@ -299,3 +299,25 @@ fn analyze_command_names_bad_requests() {
         assert!(error.contains(expected), "{error}");
     }
 }
+
+#[test]
+fn the_paper_sample_period_or_a_late_force_sensor_change_little() {
+    // The paper samples its controller every 4 ms: here the whole controller, servos included,
+    // runs at that period. Separately, tool 1's force reaches the 1 ms controller 4 ms late.
+    for set in [
+        "control_period=0.004",
+        "sensors.cutting_force_1.delay=0.004",
+    ] {
+        let summary = run(scenario("lathe-turning", &[set]), None);
+        assert!(summary.failure.is_none(), "{:?}", summary.failure);
+        for (tool, reference) in [(1, 2546.479), (2, 1273.240)] {
+            let settled = summary
+                .metric(&format!("settled_force/tool_{tool}"))
+                .unwrap();
+            assert!(
+                (settled - reference).abs() < AGREEMENT * reference,
+                "{set}: tool {tool} at {settled} N"
+            );
+        }
+    }
+}

@@ -353,7 +353,8 @@ impl Twin {
 
             if let Some(recorder) = recorder.as_mut() {
                 for text in events.drain(..) {
-                    let level = if text.contains("saturated at") {
+                    // Controllers mark their warnings with a leading "warning:".
+                    let level = if text.contains("saturated at") || text.starts_with("warning") {
                         EventLevel::Warning
                     } else {
                         EventLevel::Info

@@ -354,8 +354,9 @@ impl<L: TaskLaw> Controller for TaskController<L> {
                 self.rho_hat * self.force
             }
         };
-        self.torque = torque.clamp(-self.effort_limit, self.effort_limit);
-        efforts[self.actuator] = self.torque;
+        // Clipping to the actuator limit is the twin's (it reports saturation).
+        self.torque = torque;
+        efforts[self.actuator] = torque;
     }
 
     fn internal_names(&self) -> Vec<String> {
@@ -367,7 +368,7 @@ impl<L: TaskLaw> Controller for TaskController<L> {
     fn internal_values(&self, values: &mut [f64]) {
         let (shared, own) = values.split_at_mut(SHARED_INTERNALS.len());
         shared.copy_from_slice(&[
-            self.mode.map_or(f64::NAN, Mode::number),
+            self.mode.map_or(-1.0, Mode::number),
             self.reference.position,
             self.reference.velocity,
             self.error[0],

@@ -23,6 +23,7 @@ pub struct Sample {
     pub crank_speed: f64,
     pub ram_position: f64,
     pub ram_velocity: f64,
+    /// Applied (clipped) crank torque, N·m.
     pub torque: f64,
 }
 
@@ -132,6 +133,8 @@ impl Plant {
                 period,
                 &mut effort,
             );
+            // The twin clips the command to the actuator's limit.
+            effort[0] = effort[0].clamp(-300.0, 300.0);
             samples.push(Sample {
                 time,
                 crank_speed: self.crank_speed,

@@ -4,6 +4,7 @@
 //! [`Report`]: one row per claim with the paper's figure, the twin's figure and a verdict.
 
 mod arm;
+mod feed_axis;
 pub mod lathe;
 mod whitworth;
 
@@ -65,6 +66,11 @@ pub const PAPERS: &[Paper] = &[
         name: "lathe",
         summary: "Sudhakara & Landers 2003: parallel turning power loop, its equilibria and region of attraction",
         run: lathe::run,
+    },
+    Paper {
+        name: "feed-axis",
+        summary: "Rubio, Ibeas & Luo: P-PI vs super-twisting SMC on a linear-motor feed axis under micro-milling (Table I)",
+        run: feed_axis::run,
     },
 ];
 
