@@ -254,7 +254,12 @@ mod tests {
         let d = design(&params).unwrap();
         let expected = params.q1[0] * params.sampling_interval / params.r;
         assert!((d.gain - Matrix2::identity() * expected).abs().max() < 1e-12);
-        assert!((d.input_response * d.inertia - Matrix2::identity() * 0.005).abs().max() < 1e-15);
+        assert!(
+            (d.input_response * d.inertia - Matrix2::identity() * 0.005)
+                .abs()
+                .max()
+                < 1e-15
+        );
     }
 
     #[test]

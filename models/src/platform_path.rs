@@ -64,7 +64,9 @@ pub enum PathError {
     Empty,
     #[error("path {name} must be finite and > 0, got {value}")]
     BadTiming { name: &'static str, value: f64 },
-    #[error("path is {length:.3} m long, shorter than the {needed:.3} m needed to speed up and stop")]
+    #[error(
+        "path is {length:.3} m long, shorter than the {needed:.3} m needed to speed up and stop"
+    )]
     TooShort { length: f64, needed: f64 },
 }
 
@@ -402,20 +404,21 @@ mod tests {
         let a = 1.0 / (2.0 * radius * clothoid);
         let (mut x, mut y) = (0.0, 0.0);
         let mut factorial = 1.0;
-        for n in 0..12 {
+        for n in 0..12i32 {
             let k = 2 * n;
             if n > 0 {
                 factorial *= (k - 1) as f64 * k as f64;
             }
             let sign = if n % 2 == 0 { 1.0 } else { -1.0 };
-            x += sign * a.powi(k as i32) * clothoid.powi(2 * k as i32 + 1)
-                / (factorial * (2 * k + 1) as f64);
+            x += sign * a.powi(k) * clothoid.powi(2 * k + 1) / (factorial * (2 * k + 1) as f64);
             let f1 = factorial * (k + 1) as f64;
-            y += sign * a.powi(k as i32 + 1) * clothoid.powi(2 * k as i32 + 3)
-                / (f1 * (2 * k + 3) as f64);
+            y += sign * a.powi(k + 1) * clothoid.powi(2 * k + 3) / (f1 * (2 * k + 3) as f64);
         }
         let p = path.at(clothoid).position;
-        assert!((p[0] - x).abs() < 1e-13 && (p[1] - y).abs() < 1e-13, "{p:?} {x} {y}");
+        assert!(
+            (p[0] - x).abs() < 1e-13 && (p[1] - y).abs() < 1e-13,
+            "{p:?} {x} {y}"
+        );
     }
 
     #[test]
@@ -436,7 +439,10 @@ mod tests {
         let path = Path::new(&figure_7(), [0.0, 0.0], 0.0).unwrap();
         let p = path.at(1.0);
         let n = p.normal_acceleration();
-        let offset = [p.position[0] + 0.01 * n[0] * 0.5, p.position[1] + 0.01 * n[1] * 0.5];
+        let offset = [
+            p.position[0] + 0.01 * n[0] * 0.5,
+            p.position[1] + 0.01 * n[1] * 0.5,
+        ];
         let (s, d) = path.nearest(offset, 0.9);
         assert!((s - 1.0).abs() < 1e-6 && (d - 0.01).abs() < 1e-6, "{s} {d}");
     }

@@ -110,10 +110,7 @@ fn wheel_on_an_unknown_link() {
 #[test]
 fn other_wheel_defects() {
     assert_names(
-        &broken(
-            r#"driven="true" effort="1.0"/>"#,
-            r#"driven="true"/>"#,
-        ),
+        &broken(r#"driven="true" effort="1.0"/>"#, r#"driven="true"/>"#),
         &["wheel \"left_wheel\"", "missing effort"],
     );
     assert_names(
@@ -125,7 +122,10 @@ fn other_wheel_defects() {
         &["wheel \"left_wheel\"", "already used"],
     );
     assert_names(
-        &broken(r#"rpy="0 0 0" axis="0 1 0""#, r#"rpy="0.2 0 0" axis="0 1 0""#),
+        &broken(
+            r#"rpy="0 0 0" axis="0 1 0""#,
+            r#"rpy="0.2 0 0" axis="0 1 0""#,
+        ),
         &["wheel \"left_wheel\"", "roll is 0.2"],
     );
     assert_names(

@@ -22,10 +22,17 @@ fn osmc_cuts_at_constant_velocity_against_the_contact_force() {
         metric("cycle_time")
     );
     assert!(cuts >= 3.0, "only {cuts} whole cuts");
-    assert!(rms <= 0.02 * 1.25, "velocity error RMS {rms} m/s over the workpiece");
+    assert!(
+        rms <= 0.02 * 1.25,
+        "velocity error RMS {rms} m/s over the workpiece"
+    );
     // The crank turns clockwise all the time, a whole turn per cycle.
     assert_eq!(metric("crank_reversals"), 0.0);
-    assert!(metric("crank_turns") <= -cuts + 0.5, "{} turns", metric("crank_turns"));
+    assert!(
+        metric("crank_turns") <= -cuts + 0.5,
+        "{} turns",
+        metric("crank_turns")
+    );
 }
 
 /// Mean of (L·(y_d − y))² over the run's last `window` seconds, L = 100 (the paper's §6.1 MSE),
@@ -80,7 +87,11 @@ fn tracking_mse(controller: &str) -> f64 {
     let summary = Twin::with_controller(loaded, Box::new(probe))
         .and_then(|t| t.run(None))
         .unwrap();
-    assert!(summary.failure.is_none(), "{controller}: {:?}", summary.failure);
+    assert!(
+        summary.failure.is_none(),
+        "{controller}: {:?}",
+        summary.failure
+    );
     let (total, samples) = *sum.lock().unwrap();
     total / samples as f64
 }

@@ -96,6 +96,8 @@ pub struct Twin {
     actuated: Vec<usize>,
     /// Tree joints with a coordinate (not fixed).
     movable: Vec<usize>,
+    /// Movable joints the controller measures (the machine may hide some, e.g. a planar base).
+    sensed: Vec<usize>,
 }
 
 impl Twin {
@@ -118,9 +120,15 @@ impl Twin {
             .filter(|&j| mechanism.joints[j].motion.is_movable())
             .collect();
         let actuated = mechanism.actuated_joints();
+        let hidden = machine.unmeasured_joints();
+        let sensed: Vec<usize> = movable
+            .iter()
+            .copied()
+            .filter(|&j| !hidden.contains(&mechanism.joints[j].name))
+            .collect();
 
         let mut signals = Vec::new();
-        for &j in &movable {
+        for &j in &sensed {
             signals.push(format!("{}.position", mechanism.joints[j].name));
             signals.push(format!("{}.velocity", mechanism.joints[j].name));
         }
@@ -174,6 +182,7 @@ impl Twin {
             sensors,
             actuated,
             movable,
+            sensed,
         })
     }
 
@@ -253,7 +262,7 @@ impl Twin {
         };
 
         let signal_count = self.plant.signals.len();
-        let joint_signal_count = 2 * self.movable.len();
+        let joint_signal_count = 2 * self.sensed.len();
         let mut state = MechanismState::default();
         let mut true_signals = vec![0.0; signal_count];
         let mut measured = vec![0.0; signal_count];
@@ -279,7 +288,7 @@ impl Twin {
         let energy_start = mechanical_energy(&self.mechanism, &state, scenario.gravity);
         while step <= steps {
             let time = step as f64 * dt;
-            for (k, &j) in self.movable.iter().enumerate() {
+            for (k, &j) in self.sensed.iter().enumerate() {
                 true_signals[2 * k] = state.joint_positions[j];
                 true_signals[2 * k + 1] = state.joint_velocities[j];
             }

@@ -11,7 +11,10 @@ use thiserror::Error;
 
 /// The scenarios shipped with the twin: (name, TOML).
 pub const BUILTIN: &[(&str, &str)] = &[
-    ("platform-path", include_str!("../scenarios/platform-path.toml")),
+    (
+        "platform-path",
+        include_str!("../scenarios/platform-path.toml"),
+    ),
     (
         "platform-path-s",
         include_str!("../scenarios/platform-path-s.toml"),
@@ -41,7 +44,10 @@ pub const BUILTIN: &[(&str, &str)] = &[
 
 /// The URDF files shipped with the twin, by the path scenarios name them with.
 const BUILTIN_URDF: &[(&str, &str)] = &[
-    ("urdf/platform.urdf", include_str!("../../urdf/platform.urdf")),
+    (
+        "urdf/platform.urdf",
+        include_str!("../../urdf/platform.urdf"),
+    ),
     (
         "urdf/whitworth.urdf",
         include_str!("../../urdf/whitworth.urdf"),
@@ -316,6 +322,20 @@ fn find_urdf(path: &str, folder: Option<&Path>) -> Option<UrdfLookup> {
         .map(|(name, text)| (Ok(text.to_string()), format!("built-in {name}")))
 }
 
+/// Splits a dotted key; a quoted segment may hold dots (`sensors."table.position".noise`).
+fn key_path(key: &str) -> Option<Vec<String>> {
+    let mut parts = vec![String::new()];
+    let mut quoted = false;
+    for c in key.chars() {
+        match c {
+            '"' => quoted = !quoted,
+            '.' if !quoted => parts.push(String::new()),
+            _ => parts.last_mut()?.push(c),
+        }
+    }
+    (!quoted).then_some(parts)
+}
+
 /// Sets a dotted key to a TOML value (a number, bool, string, array; bare words are strings).
 fn apply_override(table: &mut toml::Table, assignment: &str) -> Result<(), ScenarioError> {
     let bad = |reason: &str| ScenarioError::BadSet {
@@ -325,7 +345,7 @@ fn apply_override(table: &mut toml::Table, assignment: &str) -> Result<(), Scena
     let (key, raw) = assignment
         .split_once('=')
         .ok_or_else(|| bad("expected key=value"))?;
-    let path: Vec<&str> = key.trim().split('.').collect();
+    let path = key_path(key.trim()).ok_or_else(|| bad("unbalanced quotes in the key"))?;
     if path.iter().any(|p| p.is_empty()) {
         return Err(bad("empty key"));
     }
@@ -336,6 +356,7 @@ fn apply_override(table: &mut toml::Table, assignment: &str) -> Result<(), Scena
     let (last, parents) = path.split_last().ok_or_else(|| bad("empty key"))?;
     let mut current = table;
     for part in parents {
+        let part = part.as_str();
         current = current
             .entry(part.to_string())
             .or_insert_with(|| toml::Value::Table(toml::Table::new()))
@@ -403,6 +424,12 @@ mod tests {
         assert!(err.to_string().contains("duration must be > 0"), "{err}");
         let err = load("whitworth-crank-pi", &set(&["bogus_key=1"])).unwrap_err();
         assert!(err.to_string().contains("bogus_key"), "{err}");
+        let err = load(
+            "whitworth-crank-pi",
+            &set(&["sensors.\"crank.position\".noise=-1"]),
+        )
+        .unwrap_err();
+        assert!(err.to_string().contains("noise must be"), "{err}");
         let err = load("whitworth-crank-pi", &set(&["novalue"])).unwrap_err();
         assert!(err.to_string().contains("key=value"), "{err}");
         let err = load("whitworth-crank-pi", &set(&["dt=\"fast\""])).unwrap_err();

@@ -532,9 +532,9 @@ impl Loader<'_> {
                 return Err(self.invalid(element, "name already used by another wheel or joint"));
             }
             let link_name = node.attribute("link").unwrap_or("");
-            let link = mechanism
-                .link_index(link_name)
-                .ok_or_else(|| self.invalid(element.clone(), format!("unknown link \"{link_name}\"")))?;
+            let link = mechanism.link_index(link_name).ok_or_else(|| {
+                self.invalid(element.clone(), format!("unknown link \"{link_name}\""))
+            })?;
             if link == 0 {
                 return Err(self.invalid(element, "cannot sit on the fixed root link"));
             }
@@ -559,7 +559,10 @@ impl Loader<'_> {
             let number = |attribute: &str, default: Option<f64>| -> Result<f64, UrdfError> {
                 let value = match (node.attribute(attribute), default) {
                     (Some(text), _) => text.trim().parse::<f64>().map_err(|_| {
-                        self.invalid(element.clone(), format!("{attribute}=\"{text}\" is not a number"))
+                        self.invalid(
+                            element.clone(),
+                            format!("{attribute}=\"{text}\" is not a number"),
+                        )
                     })?,
                     (None, Some(value)) => value,
                     (None, None) => {
@@ -569,7 +572,10 @@ impl Loader<'_> {
                 if value.is_finite() && value > 0.0 {
                     Ok(value)
                 } else {
-                    Err(self.invalid(element.clone(), format!("{attribute} must be > 0, got {value}")))
+                    Err(self.invalid(
+                        element.clone(),
+                        format!("{attribute} must be > 0, got {value}"),
+                    ))
                 }
             };
             let radius = number("radius", None)?;

@@ -18,8 +18,11 @@
 //! Here k₁ = 400 s⁻¹ makes the reaching dynamics `ṡ ≈ −k₁·(b(q)·m̄)·s` (b·m̄ ∈ [0.7, 1] over the
 //! workpiece) ten times faster than the sliding motion while `k₁·T = 0.4` keeps the 1 ms sampled
 //! loop well damped; k₂ = 15 N lets the integral term move u by `k₁·k₂ = 6 kN/s`, enough to take
-//! up the 400 N contact force within about 70 ms. Theorem 1 (eq 32) asks k₁ to exceed a bound
-//! on the unknown terms; in these units that reads `k₁·|s_x| ≥ |d|`, met with |s_x| ≈ 1 N·s.
+//! up the 400 N contact force within about 70 ms. λ = 20 s⁻¹ fades the start-up offset of σ
+//! over the first blend (t_a = 0.133 s). Theorem 1 (eq 32, A.6) bounds |s_x| ultimately by
+//! `η̄/k₁`, η̄ bounding the unknown terms in N: with some 400 N of them here, 1 N·s, i.e. at most
+//! `1/m̄ ≈ 0.05 m/s` on the surface until the integral term takes the steady part up. (The
+//! paper's own check, k₁ ≥ ‖ρ_y·F_y + m₅·g‖, compares 1/s with N and is not used.)
 
 use super::slider::SliderModel;
 use super::task::{bad, LawInput, TaskController, TaskDesign, TaskLaw, TaskParams};

@@ -11,14 +11,18 @@
 //! stroke is read from the crank angle: where `ρ_y` has the cutting sign, the cut is under way.
 //!
 //! **Return torques.** The paper returns the crank open loop with +8.65 N·m and, from mid-stroke,
-//! −8 N·m, for its unpublished prototype inertia; those numbers do not carry over. Here the return
-//! keeps the same two-part shape, drive then hold back, sized for the twin's linkage by an
-//! energy balance on [`Dynamics`]: part 1 applies the drive torque `T₁` (a parameter) in the
-//! turning direction from the bottom singular point until the ram passes mid-stroke; part 2
-//! applies the `T₂` that makes the crank arrive at the top singular point with the speed the
-//! profile's first blend asks for, `ω = √(|ẍ_blend|/|y″(q_top)|)` (at a singular point
-//! `ÿ = y″(q)·q̇²`), starting from the speed the last blend leaves at the bottom. Friction is not
-//! modelled; the closed loop absorbs the remainder at the hand-over.
+//! −8 N·m, for a prototype whose inertia it does not publish, so the numbers cannot be scaled.
+//! Here the return keeps the same two parts, sized for the twin's linkage by an energy balance on
+//! [`Dynamics`]: part 1 applies the drive torque `T₁` (a parameter) in the turning direction from
+//! the bottom singular point until the ram passes mid-stroke; part 2 applies the `T₂` that makes
+//! the crank arrive at the top singular point with the speed the profile's first blend asks for,
+//! `ω = √(|ẍ_blend|/|y″(q_top)|)` (at a singular point `ÿ = y″(q)·q̇²`), starting from the speed
+//! the last blend leaves at the bottom. The twin's return must lift the linkage by 76.7 J and
+//! speed the crank up from 5.9 to 10.1 rad/s (65 J more), 142 J over 2.64 rad of crank travel,
+//! so T₂ holds back (the paper's sign pattern) only for `T₁ ≳ 114 N·m`; with the default
+//! `T₁ = 80 N·m` it still drives, at 30 N·m. A larger T₁ shortens the return but enlarges the
+//! torque step at the bottom switch. Friction is not modelled; the closed loop absorbs the
+//! remainder at the hand-over.
 //!
 //! [`Dynamics`]: models::whitworth_dynamics::Dynamics
 
@@ -35,7 +39,7 @@ pub enum Mode {
     Cutting,
     /// Return stroke, part 1: open-loop drive torque.
     ReturnPart1,
-    /// Return stroke, part 2 (from mid-stroke): open-loop hold-back torque.
+    /// Return stroke, part 2 (from mid-stroke): open-loop torque landing the crank at the top.
     ReturnPart2,
 }
 

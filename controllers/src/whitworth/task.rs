@@ -11,6 +11,13 @@
 //! stroke). `reference = "auto"` (the default) picks "scenario" when the plant measures a
 //! `reference` signal and "profile" otherwise, so a scenario's `[reference]` table decides the
 //! task even when `--controller` resets the parameters to their defaults.
+//!
+//! **Signals.** Reads `crank_angle` (for ρ̂ and the model's gravity), `ram_position`,
+//! `ram_velocity` and, when tracking, the reference; drives the `joint` actuator (`crank`).
+//! Records `mode` (0 tracking, 1 cutting, 2 and 3 the return parts), `reference`,
+//! `reference_rate`, `position_error`, `velocity_error`, `u`, `rho_hat`, `torque` (as commanded;
+//! the twin clips it to the actuator's limit and reports saturation) and the law's own signals,
+//! and raises an event at each mode switch.
 
 use super::slider::SliderModel;
 use super::switching::{Mode, ReturnPlan, StrokeSwitch};

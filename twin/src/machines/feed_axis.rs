@@ -169,11 +169,8 @@ impl FeedAxis {
         if let Some(path) = &params.path {
             path.validate().map_err(|e| bad(format!("path: {e}")))?;
         }
-        let cut = params
-            .cutting
-            .then(|| MicroMillingCut::new(params.cut))
-            .transpose()
-            .map_err(|e| bad(format!("cut: {e}")))?;
+        // Checked whether or not it cuts: a bad [process.cut] is an error either way.
+        let cut = MicroMillingCut::new(params.cut).map_err(|e| bad(format!("cut: {e}")))?;
 
         let table_joint = joint(MACHINE, mechanism, TABLE_JOINT)?;
         let table = &mechanism.joints[table_joint];
@@ -209,7 +206,7 @@ impl FeedAxis {
                 steps: 0,
                 limited_steps: 0,
             },
-            cut,
+            cut: params.cutting.then_some(cut),
             cutting_force: 0.0,
             cutting_force_peak: 0.0,
             tracking: params.path.map(|path| Tracking {

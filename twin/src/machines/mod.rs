@@ -8,8 +8,8 @@ mod platform;
 mod whitworth;
 
 use crate::mechanism::Mechanism;
-use controllers::Actuator;
 use crate::physics::{Load, MechanismState};
+use controllers::Actuator;
 use thiserror::Error;
 
 #[derive(Debug, Error, Clone, PartialEq)]
@@ -44,6 +44,12 @@ pub trait Machine {
         signals: &mut [f64],
         diagnostics: &mut [f64],
     );
+
+    /// Joints the controller does not measure (they are still recorded): a planar base that only
+    /// stands for the floor, say. Names as in the URDF.
+    fn unmeasured_joints(&self) -> Vec<String> {
+        Vec::new()
+    }
 
     /// Actuators the machine provides besides the URDF's actuated joints (driven wheels). Their
     /// efforts follow the joints' in the controller's effort slice and in `drive`; the machine

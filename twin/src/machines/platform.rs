@@ -136,8 +136,16 @@ impl Platform {
             return Err(bad(format!("friction must be > 0, got {mu}")));
         }
         let chassis = link("platform", mechanism, &params.chassis)?;
-        if mechanism.wheels.iter().filter(|w| w.effort_limit.is_some()).count() != 2 {
-            return Err(bad("the URDF must declare exactly two driven <wheel>s".into()));
+        if mechanism
+            .wheels
+            .iter()
+            .filter(|w| w.effort_limit.is_some())
+            .count()
+            != 2
+        {
+            return Err(bad(
+                "the URDF must declare exactly two driven <wheel>s".into()
+            ));
         }
         let poses = mechanism.zero_pose();
         let start_pose = poses[chassis];
@@ -232,15 +240,26 @@ fn wrap(angle: f64) -> f64 {
 }
 
 impl Machine for Platform {
+    /// Only the wheel encoders are sensors: the planar base stands for the floor (the true pose,
+    /// recorded as the "direct measurement") and the caster's swivel carries no encoder.
+    fn unmeasured_joints(&self) -> Vec<String> {
+        ["floor_x", "floor_y", "floor_yaw", "caster_swivel"]
+            .map(String::from)
+            .to_vec()
+    }
+
     fn signal_names(&self) -> Vec<String> {
         let mut names: Vec<String> = self
             .actuators
             .iter()
-            .flat_map(|a| [format!("{}.position", a.joint), format!("{}.current", a.joint)])
+            .flat_map(|a| {
+                [
+                    format!("{}.position", a.joint),
+                    format!("{}.current", a.joint),
+                ]
+            })
             .collect();
-        names.extend(
-            ["path_x", "path_y", "path_vx", "path_vy", "path_heading"].map(String::from),
-        );
+        names.extend(["path_x", "path_y", "path_vx", "path_vy", "path_heading"].map(String::from));
         names
     }
 
@@ -280,8 +299,8 @@ impl Machine for Platform {
         let step = time - self.last_time.unwrap_or(time);
         self.last_time = Some(time);
         let (s, c) = self.desired_heading.sin_cos();
-        self.desired_heading += step * (-s * desired.velocity[0] + c * desired.velocity[1])
-            / self.point_h[0];
+        self.desired_heading +=
+            step * (-s * desired.velocity[0] + c * desired.velocity[1]) / self.point_h[0];
 
         let mut k = 0;
         for wheel in self.driven() {
@@ -360,14 +379,18 @@ impl Machine for Platform {
                 -velocity[0] * fy + velocity[1] * fx,
             ];
             let (n, mu, r) = (wheel.normal_load, wheel.friction, wheel.radius);
-            let friction = if wheel.actuator.is_some() { damping } else { 0.0 };
+            let gear_damping = if wheel.actuator.is_some() {
+                damping
+            } else {
+                0.0
+            };
             // Backward Euler on I·ω̇ = τ − b·ω − r·F_x(ω), F_x linearised about the present spin.
             let now = self.tyre.contact(wheel.spin, r, along, n, mu);
             let k = now.stiffness_per_spin.max(0.0);
             let inertia = wheel.inertia;
             wheel.spin = (wheel.spin
                 + dt * (wheel.drive_torque - r * now.force[0] + r * k * wheel.spin) / inertia)
-                / (1.0 + dt * (friction + r * k) / inertia);
+                / (1.0 + dt * (gear_damping + r * k) / inertia);
             wheel.angle += dt * wheel.spin;
             let after = self.tyre.contact(wheel.spin, r, along, n, mu);
             wheel.slip = after.slip;
@@ -391,7 +414,10 @@ impl Machine for Platform {
             ),
             ("heading_error_final".into(), f.heading_error),
             ("path_error_max".into(), f.path_error_max),
-            ("path_error_rms".into(), (f.path_error_square_sum / n).sqrt()),
+            (
+                "path_error_rms".into(),
+                (f.path_error_square_sum / n).sqrt(),
+            ),
             ("final_position_error".into(), f.final_position_error),
             ("final_x_h".into(), f.position_h[0]),
             ("final_y_h".into(), f.position_h[1]),

@@ -6,6 +6,7 @@
 mod arm;
 mod feed_axis;
 pub mod lathe;
+mod platform;
 mod whitworth;
 
 use crate::run::TwinError;
@@ -53,7 +54,7 @@ pub struct Paper {
 /// Every paper, in the order `twin list` shows them.
 pub const PAPERS: &[Paper] = &[
     Paper {
-        name: "whitworth-osmc",
+        name: "whitworth",
         summary: "Perrusquía et al. 2022: task-space OSMC for constant-velocity cutting on a Whitworth shaper",
         run: whitworth::run,
     },
@@ -71,6 +72,11 @@ pub const PAPERS: &[Paper] = &[
         name: "feed-axis",
         summary: "Rubio, Ibeas & Luo: P-PI vs super-twisting SMC on a linear-motor feed axis under micro-milling (Table I)",
         run: feed_axis::run,
+    },
+    Paper {
+        name: "platform",
+        summary: "Kalinski et al. 2013: two-wheeled platform, optimal control at the energy index vs two PIDs",
+        run: platform::run,
     },
 ];
 
