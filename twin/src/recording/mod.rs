@@ -23,11 +23,14 @@ use std::sync::Arc;
 
 use rerun::archetypes::{LineStrips2D, Scalars, SeriesLines, TextDocument, TextLog, Transform3D};
 use rerun::components::{Color, MediaType, RotationAxisAngle, TextLogLevel, Translation3D};
-use rerun::datatypes::Angle;
-use rerun::external::arrow::array::Float64Array;
+use rerun::external::arrow::array::{
+    ArrayRef, FixedSizeListArray, Float32Array, Float64Array, StructArray,
+};
+use rerun::external::arrow::datatypes::DataType;
+use rerun::log::ChunkBatcherConfig;
 use rerun::{
-    EntityPath, EntityPathPart, RecordingStream, RecordingStreamBuilder, SerializedComponentBatch,
-    TimeColumn,
+    ApplicationId, EntityPath, EntityPathPart, Loggable, RecordingStream, RecordingStreamBuilder,
+    SerializedComponentBatch, SerializedComponentColumn, TimeColumn,
 };
 
 use crate::mechanism::{Outline, Pose2, Shape};
@@ -43,6 +46,8 @@ const SIM_TIME: &str = "sim_time";
 
 /// Buffered samples are sent after this many (bounds memory: ~8 bytes per value and sample).
 const FLUSH_EVERY: usize = 4096;
+/// Bound on the data queued between the recorder and the file writer.
+const MAX_BYTES_IN_FLIGHT: u64 = 32 << 20;
 /// Segments of the polygon drawing a circle.
 const CIRCLE_SEGMENTS: usize = 48;
 /// Colours of shapes without a material, per link.
@@ -99,16 +104,27 @@ pub struct Recorder {
     path: PathBuf,
     /// `None` once closed.
     stream: Option<RecordingStream>,
-    links: Vec<EntityPath>,
+    links: Vec<LinkPoses>,
     groups: Vec<Group>,
     /// Total number of values per sample (sum of the groups' widths).
     width: usize,
     steps: Vec<i64>,
     times: Vec<f64>,
-    /// Per link, per buffered sample: x, y, angle wrapped to (-π, π].
-    poses: Vec<Vec<[f32; 3]>>,
+    /// The last finite time pushed, which stands in for a non-finite one.
+    last_time: f64,
     /// The first error met while sending buffered columns from `push`, reported by `finish`.
     deferred_error: Option<String>,
+}
+
+/// A link's buffered world poses.
+struct LinkPoses {
+    entity: EntityPath,
+    /// x, y, 0 per buffered sample.
+    translations: Vec<f32>,
+    /// Rotation about z, wrapped to (-π, π], per buffered sample.
+    angles: Vec<f32>,
+    /// Whether every buffered pose is finite (otherwise the non-finite ones are left out).
+    all_finite: bool,
 }
 
 struct Group {
@@ -127,14 +143,17 @@ impl Recorder {
             reason,
         };
 
-        let links: Vec<EntityPath> = layout
+        let links: Vec<LinkPoses> = layout
             .links
             .iter()
-            .map(|(name, _)| {
-                EntityPath::new(vec![
+            .map(|(name, _)| LinkPoses {
+                entity: EntityPath::new(vec![
                     EntityPathPart::new(MECHANISM),
                     EntityPathPart::new(name.as_str()),
-                ])
+                ]),
+                translations: Vec::with_capacity(3 * FLUSH_EVERY),
+                angles: Vec::with_capacity(FLUSH_EVERY),
+                all_finite: true,
             })
             .collect();
         let groups: Vec<Group> = layout
@@ -153,14 +172,25 @@ impl Recorder {
             .map(|(group, series)| (group.entity.clone(), series.path.clone()))
             .collect();
 
-        let stream =
-            RecordingStreamBuilder::new(rerun::ApplicationId::new_or_unknown(layout.app.clone()))
-                .recording_name(layout.app.as_str())
-                // Ignore the `RERUN` environment variable: the file is the run's product.
-                .enabled(true)
-                .with_blueprint(blueprint::default_blueprint(&plots))
-                .save(path)
-                .map_err(|err| create_error(error_chain(&err)))?;
+        let stream = RecordingStreamBuilder::new(application_id(&layout.app))
+            .recording_name(layout.app.as_str())
+            // Ignore the `RERUN` environment variable: the file is the run's product.
+            .enabled(true)
+            // Bounds the data queued towards the file (the default allows 100 MiB).
+            .batcher_config(ChunkBatcherConfig {
+                max_bytes_in_flight: MAX_BYTES_IN_FLIGHT,
+                ..ChunkBatcherConfig::DEFAULT
+            })
+            .with_blueprint(blueprint::default_blueprint(&plots))
+            .save(path)
+            .map_err(|err| match err {
+                // The usual case (missing directory, no permission): the OS's reason is enough.
+                rerun::RecordingStreamError::FileSink(rerun::sink::FileSinkError::CreateFile {
+                    source,
+                    ..
+                }) => create_error(source.to_string()),
+                other => create_error(error_chain(&other)),
+            })?;
 
         let log_static = |entity: &EntityPath, archetype: &dyn rerun::AsComponents| {
             stream
@@ -171,9 +201,9 @@ impl Recorder {
             &EntityPath::from(MECHANISM),
             &Transform3D::from_scale([1.0, -1.0, 1.0]),
         )?;
-        for (index, ((_, shapes), entity)) in layout.links.iter().zip(&links).enumerate() {
+        for (index, ((_, shapes), link)) in layout.links.iter().zip(&links).enumerate() {
             if let Some(strips) = link_strips(shapes, PALETTE[index % PALETTE.len()]) {
-                log_static(entity, &strips)?;
+                log_static(&link.entity, &strips)?;
             }
         }
         log_static(
@@ -194,29 +224,37 @@ impl Recorder {
         Ok(Recorder {
             path: path.to_path_buf(),
             stream: Some(stream),
-            poses: vec![Vec::with_capacity(FLUSH_EVERY); links.len()],
             links,
             groups,
             width,
             steps: Vec::with_capacity(FLUSH_EVERY),
             times: Vec::with_capacity(FLUSH_EVERY),
+            last_time: 0.0,
             deferred_error: None,
         })
     }
 
     /// Buffers one sample: step index, simulated time (s), every link's world pose (in the order of
-    /// `layout.links`) and the concatenated series values. Missing values are recorded as NaN,
-    /// extra ones ignored; a missing or non-finite pose leaves the link at its last finite pose.
+    /// `layout.links`) and the concatenated series values. Values are recorded as given (NaN and
+    /// infinities included); missing ones are recorded as NaN, extra ones ignored. A missing or
+    /// non-finite pose is left out, so the link stays drawn at its last finite pose. A non-finite
+    /// time is replaced by the last finite one.
     pub fn push(&mut self, step: i64, time: f64, link_poses: &[Pose2], values: &[f64]) {
         debug_assert_eq!(link_poses.len(), self.links.len(), "one pose per link");
         debug_assert_eq!(values.len(), self.width, "one value per signal");
+        if time.is_finite() {
+            self.last_time = time;
+        }
         self.steps.push(step);
-        self.times.push(time);
-        for (link, buffer) in self.poses.iter_mut().enumerate() {
-            buffer.push(match link_poses.get(link) {
+        self.times.push(self.last_time);
+        for (index, link) in self.links.iter_mut().enumerate() {
+            let [x, y, angle] = match link_poses.get(index) {
                 Some(pose) => [pose.x as f32, pose.y as f32, wrap_angle(pose.angle) as f32],
                 None => [f32::NAN; 3],
-            });
+            };
+            link.all_finite &= x.is_finite() && y.is_finite() && angle.is_finite();
+            link.translations.extend_from_slice(&[x, y, 0.0]);
+            link.angles.push(angle);
         }
         let mut offset = 0;
         for group in &mut self.groups {
@@ -254,6 +292,11 @@ impl Recorder {
             .columns_of_unit_batches()
             .map_err(|err| error_chain(&err))
             .and_then(|columns| {
+                let time = if time.is_finite() {
+                    time
+                } else {
+                    self.last_time
+                };
                 stream
                     .send_columns(EVENTS, timeline_columns(&[step], &[time]), columns)
                     .map_err(|err| error_chain(&err))
@@ -335,27 +378,31 @@ impl Recorder {
             );
         }
 
-        for (entity, poses) in self.links.iter().zip(&mut self.poses) {
-            let finite = |p: &[f32; 3]| p.iter().all(|v| v.is_finite());
-            let result = if poses.iter().all(finite) {
-                send_poses(stream, entity, timelines.clone(), poses.iter())
+        for link in &mut self.links {
+            let result = if link.all_finite {
+                send_poses(stream, link, timelines.clone())
             } else {
-                let kept: Vec<usize> = (0..rows).filter(|&i| finite(&poses[i])).collect();
-                if kept.is_empty() {
-                    Ok(())
-                } else {
-                    let steps: Vec<i64> = kept.iter().map(|&i| self.steps[i]).collect();
-                    let times: Vec<f64> = kept.iter().map(|&i| self.times[i]).collect();
-                    send_poses(
-                        stream,
-                        entity,
-                        timeline_columns(&steps, &times),
-                        kept.iter().map(|&i| &poses[i]),
-                    )
-                }
+                let kept: Vec<usize> = (0..rows)
+                    .filter(|&i| {
+                        link.angles[i].is_finite()
+                            && link.translations[3 * i..3 * i + 2]
+                                .iter()
+                                .all(|v| v.is_finite())
+                    })
+                    .collect();
+                let steps: Vec<i64> = kept.iter().map(|&i| self.steps[i]).collect();
+                let times: Vec<f64> = kept.iter().map(|&i| self.times[i]).collect();
+                link.angles = kept.iter().map(|&i| link.angles[i]).collect();
+                link.translations = kept
+                    .iter()
+                    .flat_map(|&i| link.translations[3 * i..3 * i + 3].iter().copied())
+                    .collect();
+                send_poses(stream, link, timeline_columns(&steps, &times))
             };
             note(result);
-            poses.clear();
+            link.translations.clear();
+            link.angles.clear();
+            link.all_finite = true;
         }
 
         self.steps.clear();
@@ -375,35 +422,65 @@ impl Drop for Recorder {
 fn timeline_columns(steps: &[i64], times: &[f64]) -> [TimeColumn; 2] {
     [
         TimeColumn::new_sequence(STEP, steps.iter().copied()),
-        TimeColumn::new_duration_secs(SIM_TIME, times.iter().map(|&t| sanitize_time(t))),
+        TimeColumn::new_duration_secs(SIM_TIME, times.iter().copied()),
     ]
 }
 
-/// A non-finite time would be clamped with a warning per sample; map it to 0 quietly.
-fn sanitize_time(t: f64) -> f64 {
-    if t.is_finite() {
-        t
-    } else {
-        0.0
+/// Sends a link's buffered poses as `Transform3D` translation and rotation-axis-angle columns (one
+/// row per sample, unless empty). The Arrow arrays are built directly from the buffers, with the
+/// components' own datatypes: this is several times cheaper than serializing component structs.
+fn send_poses(
+    stream: &RecordingStream,
+    link: &LinkPoses,
+    timelines: [TimeColumn; 2],
+) -> Result<(), String> {
+    let rows = link.angles.len();
+    if rows == 0 {
+        return Ok(());
     }
+    let columns = pose_columns(&link.translations, &link.angles).map_err(|e| error_chain(&*e))?;
+    stream
+        .send_columns(link.entity.clone(), timelines, columns)
+        .map_err(|err| error_chain(&err))
 }
 
-fn send_poses<'a>(
-    stream: &RecordingStream,
-    entity: &EntityPath,
-    timelines: [TimeColumn; 2],
-    poses: impl Iterator<Item = &'a [f32; 3]> + Clone,
-) -> Result<(), String> {
-    let columns = Transform3D::update_fields()
-        .with_many_translation(poses.clone().map(|p| Translation3D::new(p[0], p[1], 0.0)))
-        .with_many_rotation_axis_angle(
-            poses.map(|p| RotationAxisAngle::new([0.0, 0.0, 1.0], Angle::from_radians(p[2]))),
-        )
-        .columns_of_unit_batches()
-        .map_err(|err| error_chain(&err))?;
-    stream
-        .send_columns(entity.clone(), timelines, columns)
-        .map_err(|err| error_chain(&err))
+type BoxedError = Box<dyn std::error::Error + Send + Sync>;
+
+/// Translation (x, y, 0 triples) and rotation-about-z (angles) columns of unit batches.
+fn pose_columns(
+    translations: &[f32],
+    angles: &[f32],
+) -> Result<[SerializedComponentColumn; 2], BoxedError> {
+    let rows = angles.len();
+    debug_assert_eq!(translations.len(), 3 * rows);
+    let vec3 = |xyz: Vec<f32>, datatype: DataType| -> Result<ArrayRef, BoxedError> {
+        let DataType::FixedSizeList(item, 3) = datatype else {
+            return Err(format!("unexpected Vec3D datatype {datatype}").into());
+        };
+        Ok(Arc::new(FixedSizeListArray::try_new(
+            item,
+            3,
+            Arc::new(Float32Array::from(xyz)),
+            None,
+        )?))
+    };
+    let translation = vec3(translations.to_vec(), Translation3D::arrow_datatype())?;
+    let DataType::Struct(fields) = RotationAxisAngle::arrow_datatype() else {
+        return Err("unexpected RotationAxisAngle datatype".into());
+    };
+    let axes = vec3([0.0, 0.0, 1.0].repeat(rows), fields[0].data_type().clone())?;
+    let rotation: ArrayRef = Arc::new(StructArray::try_new(
+        fields,
+        vec![axes, Arc::new(Float32Array::from(angles.to_vec()))],
+        None,
+    )?);
+    let unit = std::iter::repeat_n(1, rows);
+    Ok([
+        SerializedComponentBatch::new(translation, Transform3D::descriptor_translation())
+            .partitioned(unit.clone())?,
+        SerializedComponentBatch::new(rotation, Transform3D::descriptor_rotation_axis_angle())
+            .partitioned(unit)?,
+    ])
 }
 
 /// The angle in (-π, π], keeping f32 precision over many turns.
@@ -465,6 +542,24 @@ fn link_strips(shapes: &[Shape], default_color: [u8; 3]) -> Option<LineStrips2D>
         }
     }
     (!strips.is_empty()).then(|| LineStrips2D::new(strips).with_colors(colors))
+}
+
+/// Rerun's application id for the scenario name. Rerun accepts ASCII letters, digits and
+/// `_- []:` in at most 180 bytes and otherwise rewrites the id with a hash suffix and a warning;
+/// this does a quiet, readable version of that (the recording name keeps the full name).
+fn application_id(app: &str) -> ApplicationId {
+    const MAX_BYTES: usize = 180;
+    let valid = |c: char| c.is_ascii_alphanumeric() || "_- []:".contains(c);
+    let id: String = app
+        .chars()
+        .map(|c| if valid(c) { c } else { '-' })
+        .take(MAX_BYTES)
+        .collect();
+    ApplicationId::new_or_unknown(if id.trim().is_empty() {
+        "twin".to_owned()
+    } else {
+        id
+    })
 }
 
 /// An error and its sources, for messages that name the root cause.

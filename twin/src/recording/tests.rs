@@ -8,6 +8,15 @@ fn scratch_dir(name: &str) -> PathBuf {
     dir
 }
 
+/// Removes a test's directory, unless `TWIN_KEEP_RECORDINGS` is set (to inspect the files).
+fn cleanup(dir: &Path) {
+    if std::env::var_os("TWIN_KEEP_RECORDINGS").is_none() {
+        std::fs::remove_dir_all(dir).ok();
+    } else {
+        eprintln!("kept {}", dir.display());
+    }
+}
+
 fn layout(links: usize, groups: &[(&str, usize)]) -> RecordingLayout {
     let shapes = |i: usize| {
         vec![
@@ -111,7 +120,7 @@ fn records_samples_and_events_to_a_valid_file() {
     let len = std::fs::metadata(&path).expect("file exists").len();
     assert!(len > 0);
     verify(&path);
-    std::fs::remove_dir_all(&dir).ok();
+    cleanup(&dir);
 }
 
 #[test]
@@ -132,7 +141,7 @@ fn non_finite_values_and_poses_are_recorded() {
     rec.event(3000, 3.0, EventLevel::Error, "diverged");
     rec.finish().expect("finish");
     verify(&path);
-    std::fs::remove_dir_all(&dir).ok();
+    cleanup(&dir);
 }
 
 #[test]
@@ -148,7 +157,7 @@ fn dropping_without_finish_still_closes_the_file() {
     }
     assert!(std::fs::metadata(&path).expect("file exists").len() > 0);
     verify(&path);
-    std::fs::remove_dir_all(&dir).ok();
+    cleanup(&dir);
 }
 
 #[test]
@@ -170,7 +179,66 @@ fn create_in_a_missing_directory_names_the_path() {
         err.to_string().contains(&path.display().to_string()),
         "{err}"
     );
-    std::fs::remove_dir_all(&dir).ok();
+    eprintln!("{err}");
+    cleanup(&dir);
+}
+
+#[test]
+fn create_over_a_directory_names_the_path() {
+    let dir = scratch_dir("is-a-directory");
+    let err = match Recorder::create(&dir, &layout(1, &[("task", 1)])) {
+        Ok(_) => panic!("created a recording over a directory"),
+        Err(err) => err,
+    };
+    assert!(
+        matches!(&err, RecordingError::Create { path, .. } if path == &dir),
+        "{err:?}"
+    );
+    cleanup(&dir);
+}
+
+#[test]
+fn an_empty_layout_records_a_valid_file() {
+    let dir = scratch_dir("empty");
+    let path = dir.join("run.rrd");
+    let mut layout = layout(0, &[("nothing", 0)]);
+    layout.app = String::new();
+    layout.scenario_toml = String::new();
+    let mut rec = Recorder::create(&path, &layout).expect("create");
+    for step in 0..10 {
+        rec.push(step, step as f64, &[], &[]);
+    }
+    rec.event(3, 3.0, EventLevel::Info, "nothing happens");
+    rec.finish().expect("finish");
+    verify(&path);
+    cleanup(&dir);
+}
+
+#[test]
+fn the_recorder_can_move_to_another_thread() {
+    fn assert_send<T: Send>() {}
+    assert_send::<Recorder>();
+}
+
+/// A `/proc/self/status` memory figure, kB (Linux).
+fn memory_kb(key: &str) -> Option<u64> {
+    let status = std::fs::read_to_string("/proc/self/status").ok()?;
+    let line = status.lines().find(|l| l.starts_with(key))?;
+    line.split_whitespace().nth(1)?.parse().ok()
+}
+
+/// CPU time of the calling thread, ns (Linux).
+fn thread_cpu_ns() -> Option<u64> {
+    let text = std::fs::read_to_string("/proc/thread-self/schedstat").ok()?;
+    text.split_whitespace().next()?.parse().ok()
+}
+
+/// CPU time (user + system) of the whole process, ms (Linux, assuming 100 ticks per second).
+fn process_cpu_ms() -> Option<u64> {
+    let text = std::fs::read_to_string("/proc/self/stat").ok()?;
+    let fields: Vec<&str> = text.rsplit_once(')')?.1.split_whitespace().collect();
+    let ticks: u64 = fields.get(11)?.parse::<u64>().ok()? + fields.get(12)?.parse::<u64>().ok()?;
+    Some(ticks * 10)
 }
 
 /// Throughput of the recording path for a 60 s run at 1 kHz with 30 signals and 5 links.
@@ -191,52 +259,95 @@ fn sixty_thousand_samples_are_cheap() {
             ("process", 2),
         ],
     );
+    // Inputs are computed beforehand so that only the recorder is timed.
+    let inputs: Vec<(Vec<Pose2>, Vec<f64>)> = (0..SAMPLES)
+        .map(|step| {
+            let t = step as f64 * 1e-3;
+            let values = (0..30).map(|k| (t * (k + 1) as f64).sin()).collect();
+            let poses = (0..5)
+                .map(|i| Pose2::new(i as f64 * 0.1 + t.cos(), t.sin(), 10.0 * t))
+                .collect();
+            (poses, values)
+        })
+        .collect();
+    let rss_before = memory_kb("VmRSS");
+    let cpu_start = (thread_cpu_ns(), process_cpu_ms());
     let start = Instant::now();
     let mut rec = Recorder::create(&path, &layout).expect("create");
     let created = start.elapsed();
-    let mut values = vec![0.0; 30];
-    let mut link_poses = poses(5, 0.0);
     let pushing = Instant::now();
-    for step in 0..SAMPLES {
-        let t = step as f64 * 1e-3;
-        for (k, v) in values.iter_mut().enumerate() {
-            *v = (t * (k + 1) as f64).sin();
-        }
-        for (i, pose) in link_poses.iter_mut().enumerate() {
-            *pose = Pose2::new(i as f64 * 0.1 + t.cos(), t.sin(), 10.0 * t);
-        }
-        rec.push(step, t, &link_poses, &values);
+    let push_cpu_start = thread_cpu_ns();
+    for (step, (link_poses, values)) in inputs.iter().enumerate() {
+        rec.push(step as i64, step as f64 * 1e-3, link_poses, values);
     }
     let pushed = pushing.elapsed();
+    let push_cpu = push_cpu_start
+        .zip(thread_cpu_ns())
+        .map(|(a, b)| (b - a) as f64 / 1e6);
     let finishing = Instant::now();
     rec.finish().expect("finish");
     let finished = finishing.elapsed();
     let total = start.elapsed();
+    let thread_cpu = cpu_start
+        .0
+        .zip(thread_cpu_ns())
+        .map(|(a, b)| (b - a) as f64 / 1e6);
+    let process_cpu = cpu_start.1.zip(process_cpu_ms()).map(|(a, b)| b - a);
     let len = std::fs::metadata(&path).expect("file").len();
-    let peak = std::fs::read_to_string("/proc/self/status")
-        .ok()
-        .and_then(|s| {
-            s.lines()
-                .find(|l| l.starts_with("VmHWM"))
-                .map(|l| l.split_whitespace().nth(1).unwrap_or("?").to_owned() + " kB")
-        })
-        .unwrap_or_else(|| "?".to_owned());
+    let peak = memory_kb("VmHWM");
     eprintln!(
-        "{SAMPLES} samples x 30 values + 5 poses ({} build): create {:?}, push {:?} \
-         ({:.2} µs/sample), finish {:?}, total {:?}; file {:.1} MB; process peak RSS {peak}",
+        "{SAMPLES} samples x 30 values + 5 poses ({} build): wall: create {created:?}, push \
+         {pushed:?} ({:.2} µs/sample), finish {finished:?}, total {total:?}; CPU: push (calling \
+         thread) {push_cpu:?} ms, whole recording (calling thread) {thread_cpu:?} ms, all threads \
+         {process_cpu:?} ms; file {:.1} MB; memory: RSS before create (inputs built) {rss_before:?} kB, \
+         process peak RSS {peak:?} kB",
         if cfg!(debug_assertions) {
             "debug"
         } else {
             "release"
         },
-        created,
-        pushed,
         pushed.as_secs_f64() * 1e6 / SAMPLES as f64,
-        finished,
-        total,
         len as f64 / 1e6,
     );
     assert!(total.as_secs_f64() < 30.0, "recording took {total:?}");
     verify(&path);
-    std::fs::remove_dir_all(&dir).ok();
+    cleanup(&dir);
+}
+
+/// The hand-built pose columns equal what the `Transform3D` archetype serializes.
+#[test]
+fn pose_columns_match_the_archetype_serialization() {
+    let translations = [0.5f32, -1.0, 0.0, 2.0, 3.5, 0.0, -0.25, 0.0, 0.0];
+    let angles = [0.1f32, -3.0, 3.1];
+    let ours = pose_columns(&translations, &angles).expect("columns");
+    let reference: Vec<_> = Transform3D::update_fields()
+        .with_many_translation(
+            translations
+                .chunks(3)
+                .map(|p| Translation3D::new(p[0], p[1], p[2])),
+        )
+        .with_many_rotation_axis_angle(angles.iter().map(|&a| {
+            RotationAxisAngle::new([0.0, 0.0, 1.0], rerun::datatypes::Angle::from_radians(a))
+        }))
+        .columns_of_unit_batches()
+        .expect("reference columns")
+        .collect();
+    assert_eq!(reference.len(), 2);
+    for (ours, reference) in ours.iter().zip(&reference) {
+        assert_eq!(ours.descriptor, reference.descriptor);
+        assert_eq!(ours.list_array, reference.list_array);
+    }
+}
+
+#[test]
+fn angles_are_wrapped_and_application_ids_sanitized() {
+    use std::f64::consts::PI;
+    assert_eq!(wrap_angle(0.5), 0.5);
+    assert!((wrap_angle(2.0 * PI + 0.5) - 0.5).abs() < 1e-12);
+    assert!((wrap_angle(-7.0 * PI + 0.25) - (-PI + 0.25)).abs() < 1e-9);
+    assert_eq!(wrap_angle(PI), PI);
+    assert!(wrap_angle(f64::NAN).is_nan());
+    assert_eq!(application_id("slider crank").as_str(), "slider crank");
+    assert_eq!(application_id("v1.2/run").as_str(), "v1-2-run");
+    assert_eq!(application_id("").as_str(), "twin");
 }
