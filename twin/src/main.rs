@@ -4,6 +4,7 @@ use clap::{Parser, Subcommand};
 use controllers::Registry;
 use std::path::PathBuf;
 use std::process::ExitCode;
+use twin::recording::LiveViewer;
 use twin::scenario::{self, Overrides};
 use twin::{reproduce, summary, Twin};
 
@@ -60,6 +61,13 @@ struct RunArgs {
     /// Also write the summary as JSON to this file.
     #[arg(long)]
     summary: Option<PathBuf>,
+    /// Also stream the run to a Rerun viewer listening at this URL
+    /// (e.g. rerun+http://127.0.0.1:9876/proxy).
+    #[arg(long, conflicts_with = "spawn")]
+    connect: Option<String>,
+    /// Also stream the run to a Rerun viewer started from the `rerun` executable on PATH.
+    #[arg(long)]
+    spawn: bool,
 }
 
 #[derive(clap::Args)]
@@ -133,7 +141,12 @@ fn run(args: RunArgs, registry: &Registry) -> Result<ExitCode, String> {
     if let Some(path) = &args.summary {
         check_writable(path)?;
     }
-    let twin = Twin::new(loaded, registry).map_err(|e| e.to_string())?;
+    let mut twin = Twin::new(loaded, registry).map_err(|e| e.to_string())?;
+    if let Some(url) = args.connect {
+        twin = twin.with_live_viewer(LiveViewer::Connect(url));
+    } else if args.spawn {
+        twin = twin.with_live_viewer(LiveViewer::Spawn);
+    }
     let result = twin.run(Some(&out)).map_err(|e| e.to_string())?;
     print!("{}", summary::to_table(&result));
     println!("recording: {}", out.display());

@@ -6,7 +6,9 @@ use crate::energy::mechanical_energy;
 use crate::machines::{self, Machine, MachineError};
 use crate::mechanism::{JointMotion, Mechanism};
 use crate::physics::{Load, MechanismState, Physics, SolverSettings};
-use crate::recording::{EventLevel, Recorder, RecordingError, RecordingLayout, SeriesGroup};
+use crate::recording::{
+    EventLevel, LiveViewer, Recorder, RecordingError, RecordingLayout, SeriesGroup,
+};
 use crate::scenario::{LoadedScenario, ScenarioError};
 use crate::sensors::{Noise, Sensor};
 use crate::urdf::{self, UrdfError};
@@ -96,6 +98,8 @@ pub struct Twin {
     actuated: Vec<usize>,
     /// Tree joints with a coordinate (not fixed).
     movable: Vec<usize>,
+    /// A viewer to stream the run to, besides the recording file.
+    live: Option<LiveViewer>,
     /// Movable joints the controller measures (the machine may hide some, e.g. a planar base).
     sensed: Vec<usize>,
 }
@@ -183,7 +187,14 @@ impl Twin {
             actuated,
             movable,
             sensed,
+            live: None,
         })
+    }
+
+    /// Streams the recorded run to a live viewer too (`twin run --connect URL | --spawn`).
+    pub fn with_live_viewer(mut self, live: LiveViewer) -> Self {
+        self.live = Some(live);
+        self
     }
 
     pub fn plant(&self) -> &PlantInterface {
@@ -240,6 +251,7 @@ impl Twin {
                 path,
                 RecordingLayout {
                     app: scenario.name.clone(),
+                    live: self.live.clone(),
                     scenario_toml: self.loaded.toml.clone(),
                     links: self
                         .mechanism

@@ -235,3 +235,19 @@ fn a_users_own_scenario_file_runs() {
     );
     assert!(dir.join("my-shaper.rrd").exists());
 }
+
+#[test]
+fn bad_viewer_url() {
+    fails_naming(
+        &[
+            "run",
+            "whitworth-crank-pi",
+            "--duration",
+            "0.1",
+            "--connect",
+            "notaurl",
+        ],
+        &["bad viewer URL `notaurl`"],
+        "connect",
+    );
+}

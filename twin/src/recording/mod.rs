@@ -74,6 +74,17 @@ pub struct RecordingLayout {
     /// signals. The values passed to [`Recorder::push`] are these groups' signals concatenated in
     /// this order.
     pub series: Vec<SeriesGroup>,
+    /// Also stream the run to a live viewer while it is written to the file.
+    pub live: Option<LiveViewer>,
+}
+
+/// A Rerun viewer watching the run as it happens, besides the file.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum LiveViewer {
+    /// A viewer already listening at this gRPC URL (e.g. `rerun+http://127.0.0.1:9876/proxy`).
+    Connect(String),
+    /// Start a viewer from the `rerun` executable on PATH and stream to it.
+    Spawn,
 }
 
 /// A set of signals plotted together, recorded as one multi-instance scalar entity.
@@ -172,7 +183,7 @@ impl Recorder {
             .map(|(group, series)| (group.entity.clone(), series.path.clone()))
             .collect();
 
-        let stream = RecordingStreamBuilder::new(application_id(&layout.app))
+        let builder = RecordingStreamBuilder::new(application_id(&layout.app))
             .recording_name(layout.app.as_str())
             // Ignore the `RERUN` environment variable: the file is the run's product.
             .enabled(true)
@@ -181,16 +192,25 @@ impl Recorder {
                 max_bytes_in_flight: MAX_BYTES_IN_FLIGHT,
                 ..ChunkBatcherConfig::DEFAULT
             })
-            .with_blueprint(blueprint::default_blueprint(&plots))
-            .save(path)
-            .map_err(|err| match err {
-                // The usual case (missing directory, no permission): the OS's reason is enough.
-                rerun::RecordingStreamError::FileSink(rerun::sink::FileSinkError::CreateFile {
-                    source,
-                    ..
-                }) => create_error(source.to_string()),
-                other => create_error(error_chain(&other)),
-            })?;
+            .with_blueprint(blueprint::default_blueprint(&plots));
+        let stream = match &layout.live {
+            None => builder.save(path),
+            Some(live) => {
+                let viewer = grpc_sink(live).map_err(create_error)?;
+                match rerun::sink::FileSink::new(path) {
+                    Ok(file) => builder.set_sinks((file, viewer)),
+                    Err(err) => Err(rerun::RecordingStreamError::FileSink(err)),
+                }
+            }
+        }
+        .map_err(|err| match err {
+            // The usual case (missing directory, no permission): the OS's reason is enough.
+            rerun::RecordingStreamError::FileSink(rerun::sink::FileSinkError::CreateFile {
+                source,
+                ..
+            }) => create_error(source.to_string()),
+            other => create_error(error_chain(&other)),
+        })?;
 
         let log_static = |entity: &EntityPath, archetype: &dyn rerun::AsComponents| {
             stream
@@ -575,6 +595,22 @@ fn error_chain(err: &dyn std::error::Error) -> String {
         source = cause.source();
     }
     message
+}
+
+/// The gRPC sink of a live viewer: the given URL, or a viewer spawned from PATH.
+fn grpc_sink(live: &LiveViewer) -> Result<rerun::sink::GrpcSink, String> {
+    let url = match live {
+        LiveViewer::Connect(url) => url.clone(),
+        LiveViewer::Spawn => {
+            let viewer = rerun::spawn(&rerun::SpawnOptions::default())
+                .map_err(|e| format!("cannot start a Rerun viewer: {e}"))?;
+            format!("rerun+http://127.0.0.1:{}/proxy", viewer.port)
+        }
+    };
+    let uri = url
+        .parse()
+        .map_err(|e| format!("bad viewer URL `{url}`: {e}"))?;
+    Ok(rerun::sink::GrpcSink::new(uri))
 }
 
 #[cfg(test)]
