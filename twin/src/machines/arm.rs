@@ -63,7 +63,7 @@
 mod figures;
 mod spindle;
 
-use super::{joint, link, Machine, MachineError};
+use super::{joint, link, process_params, Machine, MachineError};
 use crate::mechanism::Mechanism;
 use crate::physics::{Load, MechanismState};
 use figures::{Figures, Sample};
@@ -159,10 +159,7 @@ impl Arm {
             machine: MACHINE.into(),
             reason,
         };
-        let params: ProcessParams = process
-            .clone()
-            .try_into()
-            .map_err(|e: toml::de::Error| bad(e.message().to_string()))?;
+        let params: ProcessParams = process_params(MACHINE, process)?;
         let joints = [
             joint(MACHINE, mechanism, JOINTS[0])?,
             joint(MACHINE, mechanism, JOINTS[1])?,

@@ -24,7 +24,7 @@
 //! true position error `x_path − x` and velocity error `ẋ_path − ẋ`, recorded as diagnostics, and
 //! reports their largest magnitude and standard deviation — the columns of Table I, in m and m/s.
 
-use super::{joint, Machine, MachineError};
+use super::{joint, process_params, Machine, MachineError};
 use crate::mechanism::{JointMotion, Mechanism, Pose2};
 use crate::physics::{Load, MechanismState};
 use models::micromilling::{MicroMillingCut, MicroMillingParams};
@@ -147,10 +147,7 @@ impl FeedAxis {
             machine: MACHINE.into(),
             reason,
         };
-        let params: ProcessParams = process
-            .clone()
-            .try_into()
-            .map_err(|e: toml::de::Error| bad(e.message().trim().to_string()))?;
+        let params: ProcessParams = process_params(MACHINE, process)?;
         for (name, value) in [
             ("amplifier_gain", params.amplifier_gain),
             ("force_constant", params.force_constant),

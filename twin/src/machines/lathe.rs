@@ -16,7 +16,7 @@
 //! The cutting force acts on the slide against its feed and, tangentially at the cut diameter, on
 //! the part against its rotation: a torque F_i D_i / 2 on the spindle.
 
-use super::{joint, Machine, MachineError};
+use super::{joint, process_params, Machine, MachineError};
 use crate::mechanism::{JointMotion, Mechanism};
 use crate::physics::{Load, MechanismState};
 use models::lathe::{Lathe, LatheParams, TOOLS};
@@ -93,10 +93,7 @@ impl ParallelLathe {
             machine: MACHINE.into(),
             reason,
         };
-        let params: ProcessParams = process
-            .clone()
-            .try_into()
-            .map_err(|e: toml::de::Error| bad(e.message().to_string()))?;
+        let params: ProcessParams = process_params(MACHINE, process)?;
         let lathe = Lathe::new(params.lathe).map_err(|e| bad(e.to_string()))?;
         for (i, gap) in params.approach_gaps.iter().enumerate() {
             if !(gap.is_finite() && *gap >= 0.0) {

@@ -95,6 +95,17 @@ pub fn build(
     }
 }
 
+/// Reads a machine's `[process]` table into its parameter struct; the error quotes the bad entry.
+fn process_params<P: serde::de::DeserializeOwned>(
+    machine: &str,
+    process: &toml::Table,
+) -> Result<P, MachineError> {
+    controllers::registry::from_table(process).map_err(|reason| MachineError::BadParameters {
+        machine: machine.into(),
+        reason,
+    })
+}
+
 /// Index of a tree joint by name, or the error naming it.
 fn joint(machine: &str, mechanism: &Mechanism, name: &str) -> Result<usize, MachineError> {
     mechanism

@@ -19,7 +19,7 @@
 
 mod motor;
 
-use super::{link, Machine, MachineError};
+use super::{link, process_params, Machine, MachineError};
 use crate::mechanism::{Mechanism, Pose2};
 use crate::physics::{Load, MechanismState};
 use controllers::{Actuator, EffortKind};
@@ -118,7 +118,7 @@ impl Platform {
             machine: "platform".into(),
             reason,
         };
-        let params: ProcessParams = controllers::registry::from_table(process).map_err(bad)?;
+        let params: ProcessParams = process_params("platform", process)?;
         params.tyre.validate().map_err(|e| bad(e.to_string()))?;
         params.motor.validate().map_err(bad)?;
         if !(params.floor_gravity.is_finite() && params.floor_gravity > 0.0) {

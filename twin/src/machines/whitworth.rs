@@ -4,7 +4,7 @@
 
 mod cutting;
 
-use super::{joint, link, Machine, MachineError};
+use super::{joint, link, process_params, Machine, MachineError};
 use crate::mechanism::Mechanism;
 use crate::physics::{Load, MechanismState};
 use cutting::{Cutting, Workpiece};
@@ -44,12 +44,7 @@ const CRANK_SPEED_DEAD_BAND: f64 = 0.05;
 
 impl Whitworth {
     pub fn new(mechanism: &Mechanism, process: &toml::Table) -> Result<Self, MachineError> {
-        let params: ProcessParams = process.clone().try_into().map_err(|e: toml::de::Error| {
-            MachineError::BadParameters {
-                machine: "whitworth".into(),
-                reason: e.message().to_string(),
-            }
-        })?;
+        let params: ProcessParams = process_params("whitworth", process)?;
         let geometry = params.geometry.unwrap_or_default();
         geometry
             .validate()

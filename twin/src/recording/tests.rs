@@ -37,6 +37,7 @@ fn layout(links: usize, groups: &[(&str, usize)]) -> RecordingLayout {
     };
     RecordingLayout {
         app: "recording_test".to_owned(),
+        live: None,
         scenario_toml: "name = \"recording_test\"\n[run]\nduration = 1.0\n".to_owned(),
         links: (0..links)
             .map(|i| (format!("link {i}"), shapes(i)))
