@@ -34,18 +34,18 @@ pub mod whitworth;
 fn builtin_entries() -> Vec<registry::Entry> {
     vec![
         passive::entry(),
-        energy_optimal::entry(),
-        platform_pid::entry(),
         crank_pi::entry(),
         whitworth::osmc::entry(),
         whitworth::ffc::entry(),
         whitworth::lqt::entry(),
         whitworth::smc2::entry(),
+        path_speed_adaptive::entry(),
+        path_speed_constant::entry(),
+        energy_optimal::entry(),
+        platform_pid::entry(),
         p_pi::entry(),
         stsmc::entry(),
         stsmc_dob::entry(),
         lathe_force::entry(),
-        path_speed_adaptive::entry(),
-        path_speed_constant::entry(),
     ]
 }

@@ -238,7 +238,7 @@ impl PPi {
 pub(crate) fn entry() -> Entry {
     Entry {
         name: "p-pi",
-        machine: "*",
+        machine: "feed_axis",
         summary: "P-PI position-velocity cascade with mass and damping feed-forward (linear-motor feed axis)",
         build: |table| Ok(Box::new(PPi::new(parse_params("p-pi", table)?)?)),
     }

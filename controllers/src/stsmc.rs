@@ -279,7 +279,7 @@ impl Stsmc {
 pub(crate) fn entry() -> Entry {
     Entry {
         name: "stsmc",
-        machine: "*",
+        machine: "feed_axis",
         summary: "super-twisting sliding-mode control on a PID surface (linear-motor feed axis)",
         build: |table| Ok(Box::new(Stsmc::new(parse_params("stsmc", table)?)?)),
     }

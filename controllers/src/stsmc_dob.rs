@@ -177,7 +177,7 @@ impl StsmcDob {
 pub(crate) fn entry() -> Entry {
     Entry {
         name: "stsmc-dob",
-        machine: "*",
+        machine: "feed_axis",
         summary: "super-twisting sliding-mode control with a disturbance observer (linear-motor feed axis)",
         build: |table| Ok(Box::new(StsmcDob::new(StsmcDobParams::from_table(table)?)?)),
     }

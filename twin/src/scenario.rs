@@ -12,18 +12,9 @@ use thiserror::Error;
 /// The scenarios shipped with the twin: (name, TOML).
 pub const BUILTIN: &[(&str, &str)] = &[
     (
-        "platform-path",
-        include_str!("../scenarios/platform-path.toml"),
-    ),
-    (
-        "platform-path-s",
-        include_str!("../scenarios/platform-path-s.toml"),
-    ),
-    (
         "whitworth-crank-pi",
         include_str!("../scenarios/whitworth-crank-pi.toml"),
     ),
-    ("arm-milling", include_str!("../scenarios/arm-milling.toml")),
     (
         "whitworth-tracking",
         include_str!("../scenarios/whitworth-tracking.toml"),
@@ -31,6 +22,15 @@ pub const BUILTIN: &[(&str, &str)] = &[
     (
         "whitworth-cutting",
         include_str!("../scenarios/whitworth-cutting.toml"),
+    ),
+    ("arm-milling", include_str!("../scenarios/arm-milling.toml")),
+    (
+        "platform-path",
+        include_str!("../scenarios/platform-path.toml"),
+    ),
+    (
+        "platform-path-s",
+        include_str!("../scenarios/platform-path-s.toml"),
     ),
     (
         "feed-axis-micromilling",
