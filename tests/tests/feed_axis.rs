@@ -3,7 +3,6 @@
 //! in Table I's terms, and bad input stopped before the run.
 
 use controllers::{Controller, ControllerError, Measurement, PlantInterface, Registry};
-use models::reference::Reference;
 use std::sync::{Arc, Mutex};
 use twin::{LoadedScenario, Overrides, RunSummary, Twin};
 use twin_tests::{run, scenario};
@@ -150,12 +149,14 @@ fn no_numerical_noise_floor_at_the_papers_scale() {
 
 #[test]
 fn the_machine_judges_against_the_reference_the_controller_gets() {
-    let loaded = scenario(SCENARIO, &[]);
-    let path: Reference = loaded.scenario.process["path"]
-        .clone()
-        .try_into()
-        .expect("[process.path] is a reference");
-    assert_eq!(Some(path), loaded.scenario.reference);
+    // A reference moved by --set moves the machine's figures with it.
+    let shifted = run(
+        scenario(SCENARIO, &["duration=0.05", "reference.offset=1.0e-3"]),
+        None,
+    );
+    assert!(shifted
+        .metric("position_error_max")
+        .is_some_and(|v| v > 0.9e-3));
     let summary = run(scenario(SCENARIO, &["duration=0.05"]), None);
     for metric in ["position_error_max", "cutting_force_peak", "peak_current"] {
         assert!(summary.metric(metric).is_some_and(|v| v > 0.0), "{metric}");

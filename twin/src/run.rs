@@ -119,7 +119,12 @@ impl Twin {
     ) -> Result<Self, TwinError> {
         let scenario = &loaded.scenario;
         let mechanism = urdf::load_str(&loaded.urdf_text, &loaded.urdf_source)?;
-        let machine = machines::build(&scenario.machine, &mechanism, &scenario.process)?;
+        let machine = machines::build(
+            &scenario.machine,
+            &mechanism,
+            &scenario.process,
+            scenario.reference,
+        )?;
         let movable: Vec<usize> = (0..mechanism.joints.len())
             .filter(|&j| mechanism.joints[j].motion.is_movable())
             .collect();

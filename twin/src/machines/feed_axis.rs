@@ -17,9 +17,9 @@
 //! load for the step and is recorded as the diagnostic `cutting_force` (N; zero without the cut).
 //! `[process.cut]` holds its parameters (SI; defaults: the paper's cutting conditions).
 //!
-//! **Tracking.** The machine judges the axis against the programmed path `[process.path]` (same
-//! format as the scenario's `[reference]`, and given the same value by the built-in scenarios: the
-//! interpolator hands the controller the programmed path unchanged). Every physics step from
+//! **Tracking.** The machine judges the axis against the programmed path, the scenario's
+//! `[reference]` (the interpolator hands the controller the programmed path unchanged; without a
+//! reference there are no tracking figures). Every physics step from
 //! `metrics_from` (s, default 0: the start transient is part of the paper's Table I) it takes the
 //! true position error `x_path − x` and velocity error `ẋ_path − ẋ`, recorded as diagnostics, and
 //! reports their largest magnitude and standard deviation — the columns of Table I, in m and m/s.
@@ -48,8 +48,6 @@ struct ProcessParams {
     force_constant: f64,
     /// Peak current of the amplifier, A.
     current_limit: f64,
-    /// The programmed path; absent: no tracking figures.
-    path: Option<Reference>,
     /// Start of the window of the tracking figures, s.
     metrics_from: f64,
 }
@@ -62,7 +60,6 @@ impl Default for ProcessParams {
             amplifier_gain: 2.0,
             force_constant: 50.0,
             current_limit: 10.0,
-            path: None,
             metrics_from: 0.0,
         }
     }
@@ -142,7 +139,11 @@ pub struct FeedAxis {
 }
 
 impl FeedAxis {
-    pub fn new(mechanism: &Mechanism, process: &toml::Table) -> Result<Self, MachineError> {
+    pub fn new(
+        mechanism: &Mechanism,
+        process: &toml::Table,
+        reference: Option<Reference>,
+    ) -> Result<Self, MachineError> {
         let bad = |reason: String| MachineError::BadParameters {
             machine: MACHINE.into(),
             reason,
@@ -162,9 +163,6 @@ impl FeedAxis {
                 "metrics_from must be finite and ≥ 0, got {}",
                 params.metrics_from
             )));
-        }
-        if let Some(path) = &params.path {
-            path.validate().map_err(|e| bad(format!("path: {e}")))?;
         }
         // Checked whether or not it cuts: a bad [process.cut] is an error either way.
         let cut = MicroMillingCut::new(params.cut).map_err(|e| bad(format!("cut: {e}")))?;
@@ -206,7 +204,7 @@ impl FeedAxis {
             cut: params.cutting.then_some(cut),
             cutting_force: 0.0,
             cutting_force_peak: 0.0,
-            tracking: params.path.map(|path| Tracking {
+            tracking: reference.map(|path| Tracking {
                 path,
                 from: params.metrics_from,
                 position: ErrorStatistics::default(),
