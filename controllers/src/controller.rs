@@ -115,5 +115,6 @@ pub trait Controller: Send {
     fn internal_values(&self, _values: &mut [f64]) {}
 
     /// Moves the events raised since the last call (mode switches, saturation) into `events`.
+    /// Text starting with "warning" is recorded as a warning, anything else as information.
     fn drain_events(&mut self, _events: &mut Vec<String>) {}
 }

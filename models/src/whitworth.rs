@@ -289,6 +289,10 @@ mod tests {
             assert!((j.slot_distance - fd(lo.slot_distance, hi.slot_distance)).abs() < 1e-7);
             assert!((j.slot_angle - fd(lo.slot_angle, hi.slot_angle)).abs() < 1e-7);
             assert!((j.coupler_angle - fd(lo.coupler_angle, hi.coupler_angle)).abs() < 1e-7);
+            assert_eq!(
+                j.extended(),
+                [1.0, j.slot_distance, j.slot_angle, j.coupler_angle, j.ram]
+            );
         }
     }
 

@@ -1,8 +1,8 @@
 //! The only module that knows Rapier: builds a world from a [`Mechanism`], applies joint efforts
 //! and process loads, steps, and reports the [`MechanismState`].
 //!
-//! The URDF tree becomes one Rapier multibody (reduced coordinates, rooted at the fixed ground);
-//! each `<loop_joint>` closes its loop as an impulse joint. Multibody links start at zero joint
+//! The URDF tree becomes Rapier multibodies (reduced coordinates), one per branch leaving the
+//! fixed ground; each `<loop_joint>` closes its loop as an impulse joint. Multibody links start at zero joint
 //! coordinates, so the URDF's pose is the initial pose.
 
 use crate::mechanism::{JointMotion, Mechanism, Pose2};

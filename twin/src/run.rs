@@ -202,14 +202,6 @@ impl Twin {
         self
     }
 
-    pub fn plant(&self) -> &PlantInterface {
-        &self.plant
-    }
-
-    pub fn mechanism(&self) -> &Mechanism {
-        &self.mechanism
-    }
-
     /// Runs the scenario; with `recording`, writes the .rrd there (atomically: a partial file
     /// is renamed into place only once closed). A diverging run stops early and says so in the
     /// summary; its recording is kept, up to and including the failure.
@@ -292,7 +284,8 @@ impl Twin {
         let mut saturated = vec![false; actuator_count];
         let mut joint_efforts = vec![0.0; self.mechanism.joints.len()];
         let mut loads: Vec<Load> = Vec::new();
-        let mut events: Vec<String> = Vec::new();
+        let mut controller_events: Vec<String> = Vec::new();
+        let mut events: Vec<(EventLevel, String)> = Vec::new();
         let mut values: Vec<f64> = Vec::new();
         let mut noise = Noise::new(scenario.seed);
         let mut stats = RunStats::new(actuator_count);
@@ -348,7 +341,16 @@ impl Twin {
                     &mut commanded,
                 );
                 self.controller.internal_values(&mut internals);
-                self.controller.drain_events(&mut events);
+                self.controller.drain_events(&mut controller_events);
+                events.extend(controller_events.drain(..).map(|text| {
+                    // The controller convention: warnings start with "warning".
+                    let level = if text.starts_with("warning") {
+                        EventLevel::Warning
+                    } else {
+                        EventLevel::Info
+                    };
+                    (level, text)
+                }));
                 for (a, actuator) in self.plant.actuators.iter().enumerate() {
                     if !commanded[a].is_finite() {
                         failure.get_or_insert(Divergence {
@@ -363,12 +365,14 @@ impl Twin {
                     let now_saturated = limited[a] != commanded[a];
                     if now_saturated != saturated[a] {
                         events.push(if now_saturated {
-                            format!(
+                            let text = format!(
                                 "{} effort saturated at {:+} (commanded {:+.3})",
                                 actuator.joint, limited[a], commanded[a]
-                            )
+                            );
+                            (EventLevel::Warning, text)
                         } else {
-                            format!("{} effort back within its limit", actuator.joint)
+                            let text = format!("{} effort back within its limit", actuator.joint);
+                            (EventLevel::Info, text)
                         });
                         saturated[a] = now_saturated;
                     }
@@ -377,20 +381,15 @@ impl Twin {
             self.machine.drive(dt, &limited, &mut applied);
             stats.observe(&applied, &saturated, &state, energy[0] - energy_start);
 
+            let sampled = step % scenario.recording.every == 0 || failure.is_some();
             if let Some(recorder) = recorder.as_mut() {
-                for text in events.drain(..) {
-                    // Controllers mark their warnings with a leading "warning:".
-                    let level = if text.contains("saturated at") || text.starts_with("warning") {
-                        EventLevel::Warning
-                    } else {
-                        EventLevel::Info
-                    };
+                for (level, text) in events.drain(..) {
                     recorder.event(step, time, level, &text);
                 }
                 if let Some(failure) = &failure {
                     recorder.event(step, time, EventLevel::Error, &failure.to_string());
                 }
-                if step % scenario.recording.every == 0 || failure.is_some() {
+                if sampled {
                     values.clear();
                     values.extend(self.movable.iter().map(|&j| state.joint_positions[j]));
                     values.extend(self.movable.iter().map(|&j| state.joint_velocities[j]));
@@ -407,7 +406,7 @@ impl Twin {
             } else {
                 events.clear();
             }
-            if step % scenario.recording.every == 0 || failure.is_some() {
+            if sampled {
                 digest.add(time);
                 digest.add_all(&true_signals);
                 digest.add_all(&measured);

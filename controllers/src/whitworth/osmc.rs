@@ -297,11 +297,7 @@ mod tests {
     #[test]
     fn constant_cutting_velocity_under_the_contact_force() {
         let mut plant = Plant::twin();
-        let contact = Contact {
-            force: 400.0,
-            y_a: -0.02907,
-            y_b: -0.32907,
-        };
+        let contact = Contact::WORKPIECE;
         plant.contact = Some(contact);
         let mut osmc = build(OsmcParams::default()).unwrap();
         osmc.reset(&plant.interface()).unwrap();

@@ -109,11 +109,7 @@ mod tests {
     #[test]
     fn cuts_through_the_singular_points() {
         let mut plant = Plant::twin();
-        let contact = Contact {
-            force: 400.0,
-            y_a: -0.02907,
-            y_b: -0.32907,
-        };
+        let contact = Contact::WORKPIECE;
         plant.contact = Some(contact);
         let mut smc2 = build(Smc2Params::default()).unwrap();
         smc2.reset(&plant.interface()).unwrap();

@@ -16,6 +16,15 @@ pub struct Contact {
     pub y_b: f64,
 }
 
+impl Contact {
+    /// The paper's 400 N (eq 40) over the twin's workpiece: Algorithm 1's y_a, y_b for L_d = 0.3 m.
+    pub const WORKPIECE: Contact = Contact {
+        force: 400.0,
+        y_a: -0.02907,
+        y_b: -0.32907,
+    };
+}
+
 /// One control period of a run.
 #[derive(Debug, Clone, Copy)]
 pub struct Sample {
