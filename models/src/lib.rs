@@ -8,6 +8,7 @@ pub mod lathe;
 pub mod micromilling;
 pub mod platform_path;
 pub mod reference;
+pub mod serial_chain;
 pub mod tyre;
 pub mod velocity_profile;
 pub mod whitworth;

@@ -117,6 +117,17 @@ pub struct Joint {
     pub damping: f64,
     /// Dry friction, N·m or N.
     pub friction: f64,
+    /// A spring between parent and child (the `<spring>` extension), when the joint has one.
+    pub spring: Option<JointSpring>,
+}
+
+/// A linear joint spring: effort −stiffness·(coordinate − reference), in the joint's URDF sense.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct JointSpring {
+    /// N·m/rad or N/m.
+    pub stiffness: f64,
+    /// The coordinate at which the spring is relaxed, rad or m.
+    pub reference: f64,
 }
 
 /// A joint that closes a kinematic loop (the `<loop_joint>` extension).

@@ -216,7 +216,7 @@ impl Twin {
             SolverSettings {
                 dt,
                 gravity: scenario.gravity,
-                iterations: scenario.solver_iterations,
+                substeps: scenario.substeps,
             },
         );
 

@@ -90,8 +90,9 @@ pub struct Scenario {
     pub control_period: Option<f64>,
     #[serde(default = "default_gravity")]
     pub gravity: [f64; 2],
-    #[serde(default = "default_solver_iterations")]
-    pub solver_iterations: usize,
+    /// RK4 substeps per physics step (efforts and process loads are held over the step).
+    #[serde(default = "default_substeps")]
+    pub substeps: usize,
     /// Seed of the sensor noise.
     #[serde(default)]
     pub seed: u64,
@@ -154,8 +155,8 @@ fn default_gravity() -> [f64; 2] {
     [0.0, -9.81]
 }
 
-fn default_solver_iterations() -> usize {
-    4
+fn default_substeps() -> usize {
+    1
 }
 
 /// A scenario ready to run: parsed, checked, with its text (for provenance) and its URDF text.
@@ -206,8 +207,8 @@ impl Scenario {
         if self.recording.every == 0 {
             return Err("recording.every must be ≥ 1".into());
         }
-        if self.solver_iterations == 0 {
-            return Err("solver_iterations must be ≥ 1".into());
+        if self.substeps == 0 {
+            return Err("substeps must be ≥ 1".into());
         }
         if (self.health.max_joint_speed.is_nan() || self.health.max_joint_speed <= 0.0)
             || (self.health.max_loop_gap.is_nan() || self.health.max_loop_gap <= 0.0)

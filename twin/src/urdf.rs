@@ -29,9 +29,20 @@
 //! axis) must be > 0; `friction` is the tyre–floor μ (> 0); a `driven="true"` wheel is an actuator
 //! with the torque limit `effort` (N·m, > 0). The wheel's mass belongs to its link's `<inertial>`.
 //! Its footprint is drawn as a visual of the link.
+//!
+//! A joint may carry a linear spring between its parent and child (part of the plant, such as a
+//! flexible tool's bending stiffness), declared inside the `<joint>`:
+//!
+//! ```xml
+//! <joint name="tool_x" type="prismatic"> … <spring stiffness="2.0e6" reference="0"/> </joint>
+//! ```
+//!
+//! `stiffness` (N/m or N·m/rad, ≥ 0) and `reference` (the relaxed coordinate, m or rad, default
+//! 0) are in the joint's own sense; the joint's `<dynamics damping>` is the damper beside it.
 
 use crate::mechanism::{
-    Inertial, Joint, JointMotion, Link, LoopJoint, Mechanism, Outline, Pose2, Shape, Wheel,
+    Inertial, Joint, JointMotion, JointSpring, Link, LoopJoint, Mechanism, Outline, Pose2, Shape,
+    Wheel,
 };
 use std::collections::HashMap;
 use std::path::Path;
@@ -128,6 +139,7 @@ impl Loader<'_> {
             loops: Vec::new(),
             wheels: Vec::new(),
         };
+        self.springs(document, &mut mechanism)?;
         mechanism.loops = self.loop_joints(document, &mechanism)?;
         mechanism.wheels = self.wheels(document, &mechanism)?;
         for wheel in &mechanism.wheels {
@@ -413,7 +425,64 @@ impl Loader<'_> {
             effort_limit,
             damping,
             friction,
+            spring: None,
         })
+    }
+
+    /// Reads each `<joint>`'s `<spring stiffness reference>` extension into its joint.
+    fn springs(
+        &self,
+        document: &roxmltree::Document,
+        mechanism: &mut Mechanism,
+    ) -> Result<(), UrdfError> {
+        for node in document
+            .root_element()
+            .children()
+            .filter(|n| n.has_tag_name("joint"))
+        {
+            let Some(spring) = node.children().find(|n| n.has_tag_name("spring")) else {
+                continue;
+            };
+            let name = node.attribute("name").unwrap_or("");
+            let element = format!("joint \"{name}\" <spring>");
+            let Some(j) = mechanism.joint_index(name) else {
+                continue;
+            };
+            if !mechanism.joints[j].motion.is_movable() {
+                return Err(self.invalid(element, "a fixed joint cannot have a spring"));
+            }
+            let number = |attribute: &str, default: Option<f64>| -> Result<f64, UrdfError> {
+                match (spring.attribute(attribute), default) {
+                    (None, Some(value)) => Ok(value),
+                    (None, None) => {
+                        Err(self.invalid(element.clone(), format!("needs {attribute}=\"…\"")))
+                    }
+                    (Some(text), _) => text
+                        .trim()
+                        .parse::<f64>()
+                        .ok()
+                        .filter(|v| v.is_finite())
+                        .ok_or_else(|| {
+                            self.invalid(
+                                element.clone(),
+                                format!("{attribute}=\"{text}\" is not a finite number"),
+                            )
+                        }),
+                }
+            };
+            let stiffness = number("stiffness", None)?;
+            if stiffness < 0.0 {
+                return Err(
+                    self.invalid(element, format!("stiffness must be ≥ 0, got {stiffness}"))
+                );
+            }
+            let reference = number("reference", Some(0.0))?;
+            mechanism.joints[j].spring = Some(JointSpring {
+                stiffness,
+                reference,
+            });
+        }
+        Ok(())
     }
 
     fn unit_axis(&self, axis: [f64; 3], element: &str) -> Result<[f64; 3], UrdfError> {

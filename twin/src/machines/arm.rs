@@ -128,6 +128,22 @@ struct ProcessParams {
     /// The figures' deep zone: where the stock is deeper than this, m (default: half way between
     /// the shallowest cut and the deepest).
     deep_zone_depth: Option<f64>,
+    /// Whether the arm's power stages are on (the default) or off.
+    drive_power: DrivePower,
+}
+
+/// The arm joints' power stages. `on`: the controller's current commands drive the motors —
+/// a zero command is *not* a free joint: the current loop holds i = 0 against the back-EMF
+/// (k_e·G·q̇, 4.2 V per rad/s at the shoulder) until the 48 V supply runs out, beyond
+/// 11.4 rad/s at the shoulder, and from there the back-EMF drives a braking current.
+/// `off`: amplifiers disabled (the spindle's too), windings open: no current, no torque, the
+/// joints swing free.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize)]
+#[serde(rename_all = "lowercase")]
+enum DrivePower {
+    #[default]
+    On,
+    Off,
 }
 
 /// The paper's permissible motor current (its Fig. 2), A.
@@ -139,6 +155,7 @@ pub struct Arm {
     hand: usize,
     cutter_link: usize,
     drives: Vec<Drive>,
+    drive_power: DrivePower,
     spindle: Spindle,
     contour: ContourPath,
     stock: Stock,
@@ -227,6 +244,7 @@ impl Arm {
             hand: link(MACHINE, mechanism, "hand")?,
             cutter_link,
             drives,
+            drive_power: params.drive_power,
             spindle,
             figures: Figures::new(motors, tolerance, contour.length()),
             contour,
@@ -366,9 +384,15 @@ impl Machine for Arm {
 
     fn drive(&mut self, dt: f64, commanded: &[f64], applied: &mut [f64]) {
         for (a, drive) in self.drives.iter_mut().enumerate() {
-            applied[a] = drive.step(dt, commanded[a], self.joint_speeds[a]);
+            applied[a] = match self.drive_power {
+                DrivePower::On => drive.step(dt, commanded[a], self.joint_speeds[a]),
+                DrivePower::Off => 0.0,
+            };
         }
-        self.spindle_torque = self.spindle.step(dt, self.spindle_speed);
+        self.spindle_torque = match self.drive_power {
+            DrivePower::On => self.spindle.step(dt, self.spindle_speed),
+            DrivePower::Off => 0.0,
+        };
     }
 
     fn loads(&mut self, _time: f64, state: &MechanismState, loads: &mut Vec<Load>) {

@@ -28,6 +28,8 @@ pub struct Whitworth {
     /// Crank angle at zero joint coordinate: the crank joint's origin angle on the ground.
     crank_zero: f64,
     ram_model_error_max: f64,
+    ram_velocity_error_max: f64,
+    ram_speed_max: f64,
     ram_highest: f64,
     ram_lowest: f64,
     crank_start: Option<f64>,
@@ -67,6 +69,8 @@ impl Whitworth {
             ram_link: link("whitworth", mechanism, "ram")?,
             crank_zero: mechanism.joints[crank_joint].origin.angle,
             ram_model_error_max: 0.0,
+            ram_velocity_error_max: 0.0,
+            ram_speed_max: 0.0,
             ram_highest: f64::NEG_INFINITY,
             ram_lowest: f64::INFINITY,
             crank_start: None,
@@ -87,7 +91,10 @@ impl Machine for Whitworth {
     }
 
     fn diagnostic_names(&self) -> Vec<String> {
-        let mut names = vec!["ram_model_error".to_string()];
+        let mut names = vec![
+            "ram_model_error".to_string(),
+            "ram_velocity_model_error".to_string(),
+        ];
         if self.cutting.is_some() {
             names.push("contact_force".into());
         }
@@ -104,15 +111,19 @@ impl Machine for Whitworth {
         self.crank_angle = self.crank_zero + state.joint_positions[self.crank_joint];
         let ram_position = state.link_poses[self.ram_link].y;
         let ram_velocity = state.link_velocities[self.ram_link][1];
+        let crank_speed = state.joint_velocities[self.crank_joint];
         let model_error = ram_position - self.geometry.ram_position(self.crank_angle);
+        // The closed-form J(q)·q̇ of the same end-of-step state.
+        let velocity_error =
+            ram_velocity - self.geometry.ram_jacobian(self.crank_angle) * crank_speed;
         signals.copy_from_slice(&[self.crank_angle, ram_position, ram_velocity]);
         diagnostics[0] = model_error;
+        diagnostics[1] = velocity_error;
         if let Some(cutting) = self.cutting.as_mut() {
             self.contact_force = cutting.contact_force(ram_position, ram_velocity);
-            diagnostics[1] = self.contact_force;
+            diagnostics[2] = self.contact_force;
             cutting.observe(time, ram_position, ram_velocity);
         }
-        let crank_speed = state.joint_velocities[self.crank_joint];
         if crank_speed.abs() > CRANK_SPEED_DEAD_BAND {
             let direction = crank_speed.signum();
             if self.crank_direction.is_some_and(|d| d != direction) {
@@ -121,6 +132,8 @@ impl Machine for Whitworth {
             self.crank_direction = Some(direction);
         }
         self.ram_model_error_max = self.ram_model_error_max.max(model_error.abs());
+        self.ram_velocity_error_max = self.ram_velocity_error_max.max(velocity_error.abs());
+        self.ram_speed_max = self.ram_speed_max.max(ram_velocity.abs());
         self.ram_highest = self.ram_highest.max(ram_position);
         self.ram_lowest = self.ram_lowest.min(ram_position);
         self.crank_start.get_or_insert(self.crank_angle);
@@ -142,6 +155,11 @@ impl Machine for Whitworth {
             / std::f64::consts::TAU;
         let mut metrics = vec![
             ("ram_model_error_max".into(), self.ram_model_error_max),
+            // |ram_velocity − J(q)·q̇| at its largest, over the largest ram speed.
+            (
+                "ram_velocity_error_relative_max".into(),
+                self.ram_velocity_error_max / self.ram_speed_max.max(f64::MIN_POSITIVE),
+            ),
             ("ram_stroke".into(), self.ram_highest - self.ram_lowest),
             ("crank_turns".into(), turns),
             ("crank_reversals".into(), self.crank_reversals as f64),

@@ -1,0 +1,519 @@
+//! The equations of motion the twin integrates, in the tree's generalized coordinates q with the
+//! loop joints as constraints φ(q) = 0:
+//!
+//! ```text
+//! M(q)·q̈ + Gᵀ·λ = Q(q, q̇, t)        M = Σ mₖ·Jvₖᵀ·Jvₖ + Iₖ·Jωₖᵀ·Jωₖ
+//!        G·q̈    = −γ(q, q̇)           G = ∂φ/∂q,  γ = Ġ·q̇
+//! ```
+//!
+//! The link poses and body Jacobians (Jvₖ at the centre of mass, Jωₖ) come from Rapier's
+//! multibodies ([`super::rapier_model`]); everything here works on that snapshot. Q holds the
+//! joint efforts, springs and damping, gravity and process loads, and the velocity-product
+//! (Coriolis and centripetal) forces −Σ Jᵀ·m·J̇·q̇. In the plane an angular velocity is linear in q̇
+//! with constant coefficients, so J̇ω·q̇ = 0 and only the linear parts need the recursion of
+//! [`Dynamics::velocity_products`].
+//!
+//! Coordinates are Rapier's: a revolute joint about −z counts its angle about +z (the caller
+//! converts URDF signs at the door).
+
+use super::dense::{ldl_factor, ldl_solve};
+use crate::mechanism::{JointMotion, LoopJoint, Mechanism, Pose2};
+
+/// Pivots below this share of the largest make a loop constraint count as redundant.
+const DEPENDENT_PIVOT: f64 = 1e-12;
+
+/// Link poses and body Jacobians at one configuration, over all `n` generalized coordinates.
+#[derive(Debug, Clone, Default)]
+pub(super) struct Kinematics {
+    pub n: usize,
+    /// Per link: the link frame in the world.
+    pub poses: Vec<Pose2>,
+    /// Per link: the centre of mass in the world.
+    pub com: Vec<[f64; 2]>,
+    /// Per link: ∂v_com/∂q̇, rows x then y, `2·n` values.
+    pub jv: Vec<f64>,
+    /// Per link: ∂ω/∂q̇, `n` values.
+    pub jw: Vec<f64>,
+}
+
+impl Kinematics {
+    pub fn resize(&mut self, links: usize, n: usize) {
+        self.n = n;
+        self.poses.resize(links, Pose2::IDENTITY);
+        self.com.resize(links, [0.0; 2]);
+        self.jv.resize(links * 2 * n, 0.0);
+        self.jw.resize(links * n, 0.0);
+    }
+
+    fn jv(&self, link: usize) -> (&[f64], &[f64]) {
+        let n = self.n;
+        let rows = &self.jv[link * 2 * n..(link + 1) * 2 * n];
+        rows.split_at(n)
+    }
+
+    fn jw(&self, link: usize) -> &[f64] {
+        &self.jw[link * self.n..(link + 1) * self.n]
+    }
+
+    /// Velocity of the centre of mass and angular velocity of `link`, [vx, vy, ω], as J·q̇.
+    pub fn com_velocity(&self, link: usize, v: &[f64]) -> [f64; 3] {
+        let (jx, jy) = self.jv(link);
+        [dot(jx, v), dot(jy, v), dot(self.jw(link), v)]
+    }
+}
+
+/// A joint spring (the `<spring>` extension), in Rapier coordinates: force −k·(q − reference).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(super) struct DofSpring {
+    pub stiffness: f64,
+    pub reference: f64,
+}
+
+/// The mechanism's dynamic data, indexed by generalized coordinate.
+#[derive(Debug, Clone)]
+pub(super) struct Model {
+    pub mechanism: Mechanism,
+    /// Per tree joint: its coordinate, if it moves.
+    pub dof_of_joint: Vec<Option<usize>>,
+    /// Per coordinate: +1, or −1 for a revolute joint about −z (URDF value = sign × coordinate).
+    pub sign: Vec<f64>,
+    pub damping: Vec<f64>,
+    pub friction: Vec<f64>,
+    pub spring: Vec<Option<DofSpring>>,
+    /// Coordinate limits `[lower, upper]` in Rapier's sense.
+    pub limits: Vec<Option<[f64; 2]>>,
+    /// Rows of φ each loop joint adds.
+    pub constraint_count: usize,
+}
+
+impl Model {
+    pub fn new(mechanism: &Mechanism) -> Self {
+        let mut model = Self {
+            mechanism: mechanism.clone(),
+            dof_of_joint: Vec::with_capacity(mechanism.joints.len()),
+            sign: Vec::new(),
+            damping: Vec::new(),
+            friction: Vec::new(),
+            spring: Vec::new(),
+            limits: Vec::new(),
+            constraint_count: 2 * mechanism.loops.len(),
+        };
+        for joint in &mechanism.joints {
+            let sign = match joint.motion {
+                JointMotion::Fixed => {
+                    model.dof_of_joint.push(None);
+                    continue;
+                }
+                JointMotion::Revolute { sign } => sign,
+                JointMotion::Prismatic { .. } => 1.0,
+            };
+            model.dof_of_joint.push(Some(model.sign.len()));
+            model.sign.push(sign);
+            model.damping.push(joint.damping);
+            model.friction.push(joint.friction);
+            model.spring.push(joint.spring.map(|s| DofSpring {
+                stiffness: s.stiffness,
+                reference: sign * s.reference,
+            }));
+            model.limits.push(joint.limits.map(|[lower, upper]| {
+                if sign > 0.0 {
+                    [lower, upper]
+                } else {
+                    [-upper, -lower]
+                }
+            }));
+        }
+        model
+    }
+
+    pub fn dofs(&self) -> usize {
+        self.sign.len()
+    }
+}
+
+/// A process load held over a step: a world force at a point fixed on a link.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(super) struct HeldLoad {
+    pub link: usize,
+    pub force: [f64; 2],
+    /// The point in the link's frame.
+    pub local_point: [f64; 2],
+}
+
+/// Workspace of the equations of motion: no allocation once sized.
+#[derive(Debug, Clone, Default)]
+pub(super) struct Dynamics {
+    motion: LinkMotion,
+    /// Generalized forces, then accelerations.
+    force: Vec<f64>,
+    /// Mass matrix, then its L·D·Lᵀ factors.
+    mass: Vec<f64>,
+    /// Constraint Jacobian G, m × n.
+    pub g: Vec<f64>,
+    /// Constraint values φ (positions) or γ (velocity products).
+    pub phi: Vec<f64>,
+    gamma: Vec<f64>,
+    /// M⁻¹·Gᵀ, n × m (column-major: column r is `y[r*n..]`).
+    y: Vec<f64>,
+    /// G·M⁻¹·Gᵀ, then its factors.
+    s: Vec<f64>,
+    lambda: Vec<f64>,
+}
+
+impl Dynamics {
+    pub fn new(model: &Model) -> Self {
+        let (n, m, links) = (
+            model.dofs(),
+            model.constraint_count,
+            model.mechanism.links.len(),
+        );
+        Self {
+            motion: LinkMotion {
+                omega: vec![0.0; links],
+                origin_vp: vec![[0.0; 2]; links],
+            },
+            force: vec![0.0; n],
+            mass: vec![0.0; n * n],
+            g: vec![0.0; m * n],
+            phi: vec![0.0; m],
+            gamma: vec![0.0; m],
+            y: vec![0.0; n * m],
+            s: vec![0.0; m * m],
+            lambda: vec![0.0; m],
+        }
+    }
+
+    /// q̈ for the state (q, q̇) posed in `kin`, under generalized joint efforts `efforts` and
+    /// `loads`, into `acceleration`. Solves the constrained system above by its Schur complement.
+    #[allow(clippy::too_many_arguments)]
+    pub fn acceleration(
+        &mut self,
+        model: &Model,
+        kin: &Kinematics,
+        q: &[f64],
+        v: &[f64],
+        efforts: &[f64],
+        loads: &[HeldLoad],
+        gravity: [f64; 2],
+        acceleration: &mut [f64],
+    ) {
+        self.motion.update(model, kin, v);
+        self.generalized_forces(model, kin, q, v, efforts, loads, gravity);
+        self.factor_mass_matrix(model, kin);
+        let n = kin.n;
+        acceleration.copy_from_slice(&self.force);
+        ldl_solve(&self.mass, n, acceleration);
+        if model.constraint_count > 0 {
+            self.constraints(model, kin, Some(v));
+            // G·q̈ = −γ: λ from S·λ = G·q̈_free + γ, then q̈ = q̈_free − M⁻¹·Gᵀ·λ.
+            for r in 0..model.constraint_count {
+                self.lambda[r] = dot(&self.g[r * n..(r + 1) * n], acceleration) + self.gamma[r];
+            }
+            self.solve_constrained(n, model.constraint_count, acceleration);
+        }
+    }
+
+    /// Removes from `delta` (n values, a velocity or a displacement) the part that the
+    /// constraint rows `rhs` (in `self.lambda`) ask for, mass-weighted: `delta −= M⁻¹·Gᵀ·S⁻¹·rhs`.
+    /// Needs `self.mass` factored and `self.g` filled.
+    fn solve_constrained(&mut self, n: usize, m: usize, delta: &mut [f64]) {
+        for r in 0..m {
+            let column = &mut self.y[r * n..(r + 1) * n];
+            column.copy_from_slice(&self.g[r * n..(r + 1) * n]);
+            ldl_solve(&self.mass, n, column);
+        }
+        for r in 0..m {
+            for c in 0..m {
+                self.s[r * m + c] = dot(&self.g[r * n..(r + 1) * n], &self.y[c * n..(c + 1) * n]);
+            }
+        }
+        ldl_factor(&mut self.s, m, DEPENDENT_PIVOT);
+        ldl_solve(&self.s, m, &mut self.lambda);
+        for r in 0..m {
+            for (d, y) in delta.iter_mut().zip(&self.y[r * n..(r + 1) * n]) {
+                *d -= y * self.lambda[r];
+            }
+        }
+    }
+
+    /// The mass-weighted least correction of q that brings φ(q) (in `self.phi`, from
+    /// [`Self::constraints`]) to zero to first order: one Gauss–Newton step, into `dq`.
+    pub fn position_correction(&mut self, model: &Model, kin: &Kinematics, dq: &mut [f64]) {
+        self.factor_mass_matrix(model, kin);
+        dq.fill(0.0);
+        self.lambda.copy_from_slice(&self.phi);
+        self.solve_constrained(kin.n, model.constraint_count, dq);
+    }
+
+    /// Projects v onto the constraints' tangent space, G·v = 0, mass-weighted (the kinetic
+    /// energy removed is least, so no momentum is invented).
+    pub fn project_velocity(&mut self, model: &Model, kin: &Kinematics, v: &mut [f64]) {
+        self.constraints(model, kin, None);
+        self.factor_mass_matrix(model, kin);
+        let n = kin.n;
+        for r in 0..model.constraint_count {
+            self.lambda[r] = dot(&self.g[r * n..(r + 1) * n], v);
+        }
+        self.solve_constrained(n, model.constraint_count, v);
+    }
+
+    /// Column `dof` of M⁻¹ at the posed configuration, into `column`: how every coordinate
+    /// answers a unit impulse on one joint.
+    pub fn inverse_mass_column(
+        &mut self,
+        model: &Model,
+        kin: &Kinematics,
+        dof: usize,
+        column: &mut [f64],
+    ) {
+        self.factor_mass_matrix(model, kin);
+        column.fill(0.0);
+        column[dof] = 1.0;
+        ldl_solve(&self.mass, kin.n, column);
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn generalized_forces(
+        &mut self,
+        model: &Model,
+        kin: &Kinematics,
+        q: &[f64],
+        v: &[f64],
+        efforts: &[f64],
+        loads: &[HeldLoad],
+        gravity: [f64; 2],
+    ) {
+        for (g, f) in self.force.iter_mut().enumerate() {
+            *f = efforts[g] - model.damping[g] * v[g];
+            if let Some(spring) = model.spring[g] {
+                *f -= spring.stiffness * (q[g] - spring.reference);
+            }
+        }
+        for (l, link) in model.mechanism.links.iter().enumerate() {
+            let Some(inertial) = link.inertial else {
+                continue;
+            };
+            let a = self.motion.point_vp(kin, l, kin.com[l]);
+            let f = [
+                inertial.mass * (gravity[0] - a[0]),
+                inertial.mass * (gravity[1] - a[1]),
+            ];
+            self.add_wrench(kin, l, f, 0.0);
+        }
+        for load in loads {
+            let point = kin.poses[load.link].apply(load.local_point[0], load.local_point[1]);
+            let r = sub(point, kin.com[load.link]);
+            let torque = r[0] * load.force[1] - r[1] * load.force[0];
+            self.add_wrench(kin, load.link, load.force, torque);
+        }
+    }
+
+    /// Q += Jvᵀ·f + Jωᵀ·τ for a force at the centre of mass of `link` and a torque.
+    fn add_wrench(&mut self, kin: &Kinematics, link: usize, f: [f64; 2], torque: f64) {
+        let (jx, jy) = kin.jv(link);
+        let jw = kin.jw(link);
+        for g in 0..kin.n {
+            self.force[g] += jx[g] * f[0] + jy[g] * f[1] + jw[g] * torque;
+        }
+    }
+
+    fn factor_mass_matrix(&mut self, model: &Model, kin: &Kinematics) {
+        let n = kin.n;
+        self.mass.fill(0.0);
+        for (l, link) in model.mechanism.links.iter().enumerate() {
+            let Some(inertial) = link.inertial else {
+                continue;
+            };
+            let (jx, jy) = kin.jv(l);
+            let jw = kin.jw(l);
+            for a in 0..n {
+                if jx[a] == 0.0 && jy[a] == 0.0 && jw[a] == 0.0 {
+                    continue;
+                }
+                for b in 0..=a {
+                    self.mass[a * n + b] += inertial.mass * (jx[a] * jx[b] + jy[a] * jy[b])
+                        + inertial.izz * jw[a] * jw[b];
+                }
+            }
+        }
+        for a in 0..n {
+            for b in 0..a {
+                self.mass[b * n + a] = self.mass[a * n + b];
+            }
+        }
+        ldl_factor(&mut self.mass, n, 0.0);
+    }
+
+    /// Fills φ(q) and G for the posed configuration, and with `v` the velocity products γ.
+    pub fn constraints(&mut self, model: &Model, kin: &Kinematics, v: Option<&[f64]>) {
+        let n = kin.n;
+        self.g.fill(0.0);
+        for (l, closure) in model.mechanism.loops.iter().enumerate() {
+            let rows = &mut self.g[2 * l * n..(2 * l + 2) * n];
+            let (row_a, row_b) = rows.split_at_mut(n);
+            let (phi, gamma) = loop_rows(kin, closure, row_a, row_b, v.map(|v| (v, &self.motion)));
+            self.phi[2 * l..2 * l + 2].copy_from_slice(&phi);
+            self.gamma[2 * l..2 * l + 2].copy_from_slice(&gamma);
+        }
+    }
+}
+
+/// Per link ω and the velocity-product acceleration (the J̇·q̇ part) of its frame origin.
+#[derive(Debug, Clone, Default)]
+struct LinkMotion {
+    omega: Vec<f64>,
+    origin_vp: Vec<[f64; 2]>,
+}
+
+impl LinkMotion {
+    /// Parents first: a point fixed on a body accelerates by −ω²·r about the body's origin, and
+    /// a prismatic slider adds the Coriolis term 2·ω_parent × ṡ·u.
+    fn update(&mut self, model: &Model, kin: &Kinematics, v: &[f64]) {
+        for (l, w) in self.omega.iter_mut().enumerate() {
+            *w = dot(kin.jw(l), v);
+        }
+        self.origin_vp[0] = [0.0; 2];
+        for (j, joint) in model.mechanism.joints.iter().enumerate() {
+            let (p, c) = (joint.parent, joint.child);
+            let wp = self.omega[p];
+            let mut a = self.point_vp(kin, p, origin(&kin.poses[c]));
+            if let (JointMotion::Prismatic { axis }, Some(g)) =
+                (joint.motion, model.dof_of_joint[j])
+            {
+                let [ux, uy] = kin.poses[p].compose(&joint.origin).rotate(axis[0], axis[1]);
+                a[0] -= 2.0 * wp * v[g] * uy;
+                a[1] += 2.0 * wp * v[g] * ux;
+            }
+            self.origin_vp[c] = a;
+        }
+    }
+
+    /// Velocity-product acceleration of a world point fixed on `link`.
+    fn point_vp(&self, kin: &Kinematics, link: usize, point: [f64; 2]) -> [f64; 2] {
+        let w2 = self.omega[link] * self.omega[link];
+        let r = sub(point, origin(&kin.poses[link]));
+        [
+            self.origin_vp[link][0] - w2 * r[0],
+            self.origin_vp[link][1] - w2 * r[1],
+        ]
+    }
+
+    /// Velocity of a world point fixed on `link`.
+    fn point_velocity(
+        &self,
+        kin: &Kinematics,
+        link: usize,
+        point: [f64; 2],
+        v: &[f64],
+    ) -> [f64; 2] {
+        let (jx, jy) = kin.jv(link);
+        let w = self.omega[link];
+        let [rx, ry] = sub(point, kin.com[link]);
+        [dot(jx, v) - w * ry, dot(jy, v) + w * rx]
+    }
+}
+
+/// The two rows of one loop joint: φ, its Jacobian rows (into `row_a`, `row_b`, zeroed) and,
+/// given q̇ and the velocity products, γ.
+///
+/// Revolute: the two frame origins coincide, φ = p₂ − p₁. Prismatic (axis u in frame 1,
+/// normal n = z × u): φ_a = n·(p₂ − p₁), the offset across the slide, and φ_b = θ₂ − θ₁, the
+/// frames stay aligned.
+fn loop_rows(
+    kin: &Kinematics,
+    closure: &LoopJoint,
+    row_a: &mut [f64],
+    row_b: &mut [f64],
+    velocity: Option<(&[f64], &LinkMotion)>,
+) -> ([f64; 2], [f64; 2]) {
+    let (l1, l2) = (closure.link1, closure.link2);
+    let frame1 = kin.poses[l1].compose(&closure.frame1);
+    let frame2 = kin.poses[l2].compose(&closure.frame2);
+    let (p1, p2) = (origin(&frame1), origin(&frame2));
+    let d = sub(p2, p1);
+    let mut gamma = [0.0; 2];
+    match closure.motion {
+        JointMotion::Prismatic { axis } => {
+            let u = frame1.rotate(axis[0], axis[1]);
+            let normal = [-u[1], u[0]];
+            // Jacobian of n·(p₂ − p₁): n·(J_p₂ − J_p₁) + ((z × n)·d)·Jω₁, as ṅ = ω₁ z × n.
+            point_rows(kin, l2, p2, 1.0, normal, row_a);
+            point_rows(kin, l1, p1, -1.0, normal, row_a);
+            let z_cross_n = [-normal[1], normal[0]];
+            let lever = z_cross_n[0] * d[0] + z_cross_n[1] * d[1];
+            let jw1 = kin.jw(l1);
+            let jw2 = kin.jw(l2);
+            for g in 0..kin.n {
+                row_a[g] += lever * jw1[g];
+                row_b[g] = jw2[g] - jw1[g];
+            }
+            let phi = [
+                normal[0] * d[0] + normal[1] * d[1],
+                wrap(frame2.angle - frame1.angle),
+            ];
+            if let Some((v, motion)) = velocity {
+                let w1 = motion.omega[l1];
+                let a = sub(motion.point_vp(kin, l2, p2), motion.point_vp(kin, l1, p1));
+                let d_rate = sub(
+                    motion.point_velocity(kin, l2, p2, v),
+                    motion.point_velocity(kin, l1, p1, v),
+                );
+                gamma[0] = normal[0] * a[0]
+                    + normal[1] * a[1]
+                    + 2.0 * w1 * (z_cross_n[0] * d_rate[0] + z_cross_n[1] * d_rate[1])
+                    - w1 * w1 * (normal[0] * d[0] + normal[1] * d[1]);
+            }
+            (phi, gamma)
+        }
+        _ => {
+            point_rows(kin, l2, p2, 1.0, [1.0, 0.0], row_a);
+            point_rows(kin, l1, p1, -1.0, [1.0, 0.0], row_a);
+            point_rows(kin, l2, p2, 1.0, [0.0, 1.0], row_b);
+            point_rows(kin, l1, p1, -1.0, [0.0, 1.0], row_b);
+            if let Some((_, motion)) = velocity {
+                gamma = sub(motion.point_vp(kin, l2, p2), motion.point_vp(kin, l1, p1));
+            }
+            (d, gamma)
+        }
+    }
+}
+
+/// row += scale × direction·J_point for a world point fixed on `link`.
+fn point_rows(
+    kin: &Kinematics,
+    link: usize,
+    point: [f64; 2],
+    scale: f64,
+    direction: [f64; 2],
+    row: &mut [f64],
+) {
+    let (jx, jy) = kin.jv(link);
+    let jw = kin.jw(link);
+    let [rx, ry] = sub(point, kin.com[link]);
+    for g in 0..kin.n {
+        row[g] +=
+            scale * (direction[0] * (jx[g] - ry * jw[g]) + direction[1] * (jy[g] + rx * jw[g]));
+    }
+}
+
+fn origin(pose: &Pose2) -> [f64; 2] {
+    [pose.x, pose.y]
+}
+
+fn sub(a: [f64; 2], b: [f64; 2]) -> [f64; 2] {
+    [a[0] - b[0], a[1] - b[1]]
+}
+
+pub(super) fn dot(a: &[f64], b: &[f64]) -> f64 {
+    a.iter().zip(b).map(|(x, y)| x * y).sum()
+}
+
+/// An angle difference brought into (−π, π].
+fn wrap(angle: f64) -> f64 {
+    let wrapped = angle.rem_euclid(std::f64::consts::TAU);
+    if wrapped > std::f64::consts::PI {
+        wrapped - std::f64::consts::TAU
+    } else {
+        wrapped
+    }
+}

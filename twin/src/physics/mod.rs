@@ -1,0 +1,312 @@
+//! The physics of a [`Mechanism`]: the only module that knows Rapier.
+//!
+//! Rapier holds the URDF tree as multibodies (reduced coordinates) and supplies, at any
+//! configuration, the link poses and body Jacobians ([`rapier_model`]). The twin builds the
+//! equations of motion from them, with each `<loop_joint>` as a holonomic constraint
+//! ([`dynamics`]), and advances them itself:
+//!
+//! 1. one classical Runge–Kutta (RK4) step of the constrained equations per substep, efforts and
+//!    loads held over the step — fourth order, so no numerical damping worth the name;
+//! 2. joint limits as inelastic stops;
+//! 3. the loop closures made exact: Gauss–Newton on φ(q) = 0, mass-weighted, to 1e-12;
+//! 4. dry joint friction as one impulse per substep, which sticks the joint when it can;
+//! 5. the velocities projected on the constraints' tangent space, mass-weighted.
+//!
+//! Every velocity handed out is the end-of-step state: link velocities are J(q)·q̇ at the final q.
+
+mod dense;
+mod dynamics;
+mod rapier_model;
+
+use crate::mechanism::{JointMotion, Mechanism, Pose2};
+use dynamics::{Dynamics, HeldLoad, Kinematics, Model};
+use rapier_model::RapierModel;
+
+/// Largest loop-constraint residual (m, rad) the position projection leaves.
+const CLOSURE_TOLERANCE: f64 = 1e-12;
+/// Gauss–Newton iterations before giving up (the health check then sees the gap).
+const CLOSURE_ITERATIONS: usize = 8;
+
+/// Joint coordinates and link motion after a step, in the URDF's conventions.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct MechanismState {
+    /// Per tree joint (as [`Mechanism::joints`]): rad or m, counted along the URDF axis; 0 for fixed.
+    pub joint_positions: Vec<f64>,
+    /// rad/s or m/s.
+    pub joint_velocities: Vec<f64>,
+    /// Per link (as [`Mechanism::links`]): the link frame in the world.
+    pub link_poses: Vec<Pose2>,
+    /// Per link: velocity of the link frame's origin, m/s.
+    pub link_velocities: Vec<[f64; 2]>,
+    /// Per link: angular velocity, rad/s.
+    pub link_angular_velocities: Vec<f64>,
+    /// Per loop joint: how far its two frames have drifted apart (m), the loop-closure error.
+    pub loop_gaps: Vec<f64>,
+}
+
+/// An external force on a link (a process force: cutting, contact), in world coordinates.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Load {
+    pub link: usize,
+    pub force: [f64; 2],
+    /// Where it acts, world coordinates (at the start of the step; it moves with the link).
+    pub point: [f64; 2],
+}
+
+/// Solver settings a scenario may tune.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SolverSettings {
+    pub dt: f64,
+    pub gravity: [f64; 2],
+    /// RK4 substeps per step (efforts and loads are held over the whole step).
+    pub substeps: usize,
+}
+
+pub struct Physics {
+    model: Model,
+    rapier: RapierModel,
+    dynamics: Dynamics,
+    settings: SolverSettings,
+    /// Generalized coordinates and velocities (Rapier's signs).
+    q: Vec<f64>,
+    v: Vec<f64>,
+    /// Poses and Jacobians at `q`: the end-of-step state.
+    kin: Kinematics,
+    stage: Stage,
+    efforts: Vec<f64>,
+    loads: Vec<HeldLoad>,
+}
+
+/// RK4 workspace.
+struct Stage {
+    kin: Kinematics,
+    q: Vec<f64>,
+    v: [Vec<f64>; 3],
+    a: [Vec<f64>; 4],
+    column: Vec<f64>,
+}
+
+impl Physics {
+    pub fn new(mechanism: &Mechanism, settings: SolverSettings) -> Self {
+        let model = Model::new(mechanism);
+        let n = model.dofs();
+        let mut physics = Self {
+            rapier: RapierModel::new(mechanism),
+            dynamics: Dynamics::new(&model),
+            settings: SolverSettings {
+                substeps: settings.substeps.max(1),
+                ..settings
+            },
+            q: vec![0.0; n],
+            v: vec![0.0; n],
+            kin: Kinematics::default(),
+            stage: Stage {
+                kin: Kinematics::default(),
+                q: vec![0.0; n],
+                v: [vec![0.0; n], vec![0.0; n], vec![0.0; n]],
+                a: [vec![0.0; n], vec![0.0; n], vec![0.0; n], vec![0.0; n]],
+                column: vec![0.0; n],
+            },
+            efforts: vec![0.0; n],
+            loads: Vec::new(),
+            model,
+        };
+        // The URDF pose is assembled to 1 µm (the loader checks): start exactly closed.
+        physics.close_loops();
+        physics
+    }
+
+    /// Applies one step's joint efforts (per tree joint, URDF sign; N·m or N) and loads, then
+    /// advances by dt. Efforts and loads act for this step only.
+    pub fn step(&mut self, joint_efforts: &[f64], loads: &[Load]) {
+        for (j, &effort) in joint_efforts.iter().enumerate() {
+            if let Some(g) = self.model.dof_of_joint[j] {
+                self.efforts[g] = self.model.sign[g] * effort;
+            }
+        }
+        self.loads.clear();
+        self.loads.extend(loads.iter().map(|load| {
+            let pose = self.kin.poses[load.link];
+            let (s, c) = pose.angle.sin_cos();
+            let (dx, dy) = (load.point[0] - pose.x, load.point[1] - pose.y);
+            HeldLoad {
+                link: load.link,
+                force: load.force,
+                local_point: [c * dx + s * dy, -s * dx + c * dy],
+            }
+        }));
+        let h = self.settings.dt / self.settings.substeps as f64;
+        for _ in 0..self.settings.substeps {
+            self.runge_kutta(h);
+            self.stop_at_limits();
+            self.close_loops();
+            if self.apply_friction(h) {
+                self.close_loops();
+            }
+            if self.model.constraint_count > 0 {
+                self.dynamics
+                    .project_velocity(&self.model, &self.kin, &mut self.v);
+            }
+        }
+    }
+
+    /// One RK4 step of (q, q̇) by `h`; leaves `self.q`, `self.v` advanced (not yet projected).
+    fn runge_kutta(&mut self, h: f64) {
+        let Self {
+            model,
+            rapier,
+            dynamics,
+            settings,
+            q,
+            v,
+            kin,
+            stage,
+            efforts,
+            loads,
+        } = self;
+        let gravity = settings.gravity;
+        let n = q.len();
+        dynamics.acceleration(model, kin, q, v, efforts, loads, gravity, &mut stage.a[0]);
+        // Stage k starts from the previous stage's rates: (q + c·h·v_k, v + c·h·a_k).
+        for (k, step) in [h / 2.0, h / 2.0, h].into_iter().enumerate() {
+            for g in 0..n {
+                let rate = if k == 0 { v[g] } else { stage.v[k - 1][g] };
+                stage.q[g] = q[g] + step * rate;
+                stage.v[k][g] = v[g] + step * stage.a[k][g];
+            }
+            rapier.pose(&model.mechanism, &stage.q, &mut stage.kin);
+            dynamics.acceleration(
+                model,
+                &stage.kin,
+                &stage.q,
+                &stage.v[k],
+                efforts,
+                loads,
+                gravity,
+                &mut stage.a[k + 1],
+            );
+        }
+        let ([v2, v3, v4], [a1, a2, a3, a4]) = (&stage.v, &stage.a);
+        for g in 0..n {
+            q[g] += h / 6.0 * (v[g] + 2.0 * v2[g] + 2.0 * v3[g] + v4[g]);
+            v[g] += h / 6.0 * (a1[g] + 2.0 * a2[g] + 2.0 * a3[g] + a4[g]);
+        }
+    }
+
+    /// Joint limits as inelastic stops: a joint past a limit is put back on it and loses the
+    /// velocity that carried it there.
+    fn stop_at_limits(&mut self) {
+        for (g, limits) in self.model.limits.iter().enumerate() {
+            let Some([lower, upper]) = *limits else {
+                continue;
+            };
+            if self.q[g] < lower {
+                self.q[g] = lower;
+                self.v[g] = self.v[g].max(0.0);
+            } else if self.q[g] > upper {
+                self.q[g] = upper;
+                self.v[g] = self.v[g].min(0.0);
+            }
+        }
+    }
+
+    /// Poses the mechanism at `q`, first bringing the loop constraints to zero by Gauss–Newton
+    /// (the mass-weighted least correction each iteration).
+    fn close_loops(&mut self) {
+        let n = self.q.len();
+        for _ in 0..CLOSURE_ITERATIONS {
+            self.rapier
+                .pose(&self.model.mechanism, &self.q, &mut self.kin);
+            if self.model.constraint_count == 0 {
+                return;
+            }
+            self.dynamics.constraints(&self.model, &self.kin, None);
+            let residual = self
+                .dynamics
+                .phi
+                .iter()
+                .fold(0.0, |m: f64, p| m.max(p.abs()));
+            if residual <= CLOSURE_TOLERANCE || !residual.is_finite() {
+                return;
+            }
+            let dq = &mut self.stage.column[..n];
+            self.dynamics
+                .position_correction(&self.model, &self.kin, dq);
+            for (q, d) in self.q.iter_mut().zip(dq.iter()) {
+                *q += *d;
+            }
+        }
+        self.rapier
+            .pose(&self.model.mechanism, &self.q, &mut self.kin);
+    }
+
+    /// Dry friction (URDF `<dynamics friction>`): per joint, the impulse of at most F·h that
+    /// would stop the joint alone, applied through M⁻¹ (one Gauss–Seidel pass over the joints).
+    /// The position takes h/2 of the velocity change, as a force held over the step would move
+    /// it, so a stuck joint does not creep. Returns whether anything changed.
+    fn apply_friction(&mut self, h: f64) -> bool {
+        let mut changed = false;
+        for g in 0..self.q.len() {
+            let friction = self.model.friction[g];
+            if friction == 0.0 {
+                continue;
+            }
+            let column = &mut self.stage.column;
+            self.dynamics
+                .inverse_mass_column(&self.model, &self.kin, g, column);
+            let stopping = -self.v[g] / column[g];
+            let impulse = stopping.clamp(-friction * h, friction * h);
+            for ((v, q), c) in self.v.iter_mut().zip(self.q.iter_mut()).zip(column.iter()) {
+                *v += c * impulse;
+                *q += 0.5 * h * c * impulse;
+            }
+            changed |= impulse != 0.0;
+        }
+        changed
+    }
+
+    /// Reads the state into `state`, reusing its buffers.
+    pub fn read_state(&self, state: &mut MechanismState) {
+        let mechanism = &self.model.mechanism;
+        let joints = mechanism.joints.len();
+        state.joint_positions.resize(joints, 0.0);
+        state.joint_velocities.resize(joints, 0.0);
+        for (j, dof) in self.model.dof_of_joint.iter().enumerate() {
+            let (q, v) = dof.map_or((0.0, 0.0), |g| {
+                let sign = self.model.sign[g];
+                (sign * self.q[g], sign * self.v[g])
+            });
+            state.joint_positions[j] = q;
+            state.joint_velocities[j] = v;
+        }
+        state.link_poses.clear();
+        state.link_velocities.clear();
+        state.link_angular_velocities.clear();
+        for (l, pose) in self.kin.poses.iter().enumerate() {
+            let [vx, vy, omega] = self.kin.com_velocity(l, &self.v);
+            let [cx, cy] = self.kin.com[l];
+            // The frame origin moves as the centre of mass plus ω × (origin − com).
+            state.link_poses.push(*pose);
+            state
+                .link_velocities
+                .push([vx - omega * (pose.y - cy), vy + omega * (pose.x - cx)]);
+            state.link_angular_velocities.push(omega);
+        }
+        state.loop_gaps.clear();
+        for closure in &mechanism.loops {
+            let frame1 = state.link_poses[closure.link1].compose(&closure.frame1);
+            let frame2 = state.link_poses[closure.link2].compose(&closure.frame2);
+            let gap = [frame2.x - frame1.x, frame2.y - frame1.y];
+            state.loop_gaps.push(match closure.motion {
+                JointMotion::Prismatic { axis } => {
+                    let [ax, ay] = frame1.rotate(axis[0], axis[1]);
+                    (gap[1] * ax - gap[0] * ay).abs()
+                }
+                _ => gap[0].hypot(gap[1]),
+            });
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests;

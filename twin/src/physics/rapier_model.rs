@@ -1,0 +1,201 @@
+//! The Rapier side of the physics: the URDF tree as Rapier multibodies (reduced coordinates, one
+//! per branch leaving the fixed ground), posed at given joint coordinates by Rapier's forward
+//! kinematics and read back as link poses and body Jacobians. Nothing here integrates: the twin
+//! advances the state itself ([`super::Physics`]).
+
+use super::dynamics::Kinematics;
+use crate::mechanism::{JointMotion, Mechanism, Pose2};
+use rapier2d_f64::prelude::*;
+
+pub(super) struct RapierModel {
+    bodies: RigidBodySet,
+    multibodies: MultibodyJointSet,
+    /// Per generalized coordinate: the multibody link whose joint it is, and which of the joint's
+    /// coordinates (0 = along x for a slider, 2 = the angle).
+    dofs: Vec<(MultibodyLinkId, usize)>,
+    /// Per mechanism link: its multibody link (`None` for the ground).
+    links: Vec<Option<MultibodyLinkId>>,
+    /// Each multibody once, with the generalized coordinate of each of its Jacobian columns.
+    columns: Vec<(MultibodyIndex, Vec<usize>)>,
+    ground: Pose2,
+}
+
+impl RapierModel {
+    pub fn new(mechanism: &Mechanism) -> Self {
+        let mut bodies = RigidBodySet::new();
+        let mut multibodies = MultibodyJointSet::new();
+        let poses = mechanism.zero_pose();
+        let handles: Vec<RigidBodyHandle> = mechanism
+            .links
+            .iter()
+            .zip(&poses)
+            .map(|(link, pose)| {
+                let builder = match link.inertial {
+                    None => RigidBodyBuilder::fixed(),
+                    Some(inertial) => {
+                        RigidBodyBuilder::dynamic().additional_mass_properties(MassProperties::new(
+                            Vector::new(inertial.centre_of_mass[0], inertial.centre_of_mass[1]),
+                            inertial.mass,
+                            inertial.izz,
+                        ))
+                    }
+                };
+                let mut body = builder.pose(to_rapier(pose)).build();
+                // Rapier's pipeline would compute these on its first step; the twin never runs
+                // it, and the body Jacobians need the centre of mass.
+                body.recompute_mass_properties_from_colliders(&ColliderSet::new());
+                bodies.insert(body)
+            })
+            .collect();
+        // Each branch leaving the ground gets its own fixed anchor, so each becomes its own
+        // multibody.
+        for joint in &mechanism.joints {
+            let parent = if joint.parent == 0 {
+                bodies.insert(RigidBodyBuilder::fixed().pose(to_rapier(&poses[0])))
+            } else {
+                handles[joint.parent]
+            };
+            let generic = tree_joint(joint.motion, &joint.origin);
+            multibodies
+                .insert(parent, handles[joint.child], generic, false)
+                .expect("a validated URDF tree inserts parent before child");
+        }
+        // A new multibody's root is a free joint until the first forward kinematics sees the fixed
+        // anchor: only then are its dof count and assembly ids final.
+        let roots: Vec<MultibodyIndex> = mechanism
+            .joints
+            .iter()
+            .filter_map(|j| multibodies.rigid_body_link(handles[j.child]))
+            .map(|id| id.multibody)
+            .collect();
+        for index in roots {
+            let mb = multibodies.get_multibody_mut(index).expect("built");
+            mb.forward_kinematics(&bodies, true);
+        }
+        let mut links = vec![None; mechanism.links.len()];
+        let mut dofs = Vec::new();
+        let mut columns: Vec<(MultibodyIndex, Vec<usize>)> = Vec::new();
+        for joint in &mechanism.joints {
+            let id = *multibodies
+                .rigid_body_link(handles[joint.child])
+                .expect("inserted");
+            links[joint.child] = Some(id);
+            let mb = multibodies.get_multibody(id.multibody).expect("built");
+            let entry = match columns.iter().position(|(m, _)| *m == id.multibody) {
+                Some(i) => i,
+                None => {
+                    columns.push((id.multibody, vec![0; mb.ndofs()]));
+                    columns.len() - 1
+                }
+            };
+            let coordinate = match joint.motion {
+                JointMotion::Fixed => continue,
+                JointMotion::Prismatic { .. } => 0,
+                JointMotion::Revolute { .. } => 2,
+            };
+            let column = mb.link(id.id).expect("link").assembly_id();
+            columns[entry].1[column] = dofs.len();
+            dofs.push((id, coordinate));
+        }
+        Self {
+            bodies,
+            multibodies,
+            dofs,
+            links,
+            columns,
+            ground: poses[0],
+        }
+    }
+
+    /// Poses the multibodies at generalized coordinates `q` and fills `kin`.
+    pub fn pose(&mut self, mechanism: &Mechanism, q: &[f64], kin: &mut Kinematics) {
+        for (&(id, coordinate), &target) in self.dofs.iter().zip(q) {
+            let mb = self
+                .multibodies
+                .get_multibody_mut(id.multibody)
+                .expect("built");
+            let joint = &mut mb.link_mut(id.id).expect("link").joint;
+            let now = joint.coords()[coordinate];
+            joint.apply_displacement(&[target - now]);
+        }
+        for (index, _) in &self.columns {
+            let mb = self.multibodies.get_multibody_mut(*index).expect("built");
+            mb.forward_kinematics(&self.bodies, false);
+        }
+        kin.resize(mechanism.links.len(), q.len());
+        let n = q.len();
+        kin.jv.fill(0.0);
+        kin.jw.fill(0.0);
+        for (l, link) in mechanism.links.iter().enumerate() {
+            let Some(id) = self.links[l] else {
+                kin.poses[l] = self.ground;
+                kin.com[l] = [self.ground.x, self.ground.y];
+                continue;
+            };
+            let mb = self.multibodies.get_multibody(id.multibody).expect("built");
+            let pose = from_rapier(mb.link(id.id).expect("link").local_to_world());
+            let com = link.inertial.map_or([0.0; 2], |i| i.centre_of_mass);
+            kin.poses[l] = pose;
+            kin.com[l] = pose.apply(com[0], com[1]);
+            let jacobian = mb.body_jacobian(id.id);
+            let (_, map) = self
+                .columns
+                .iter()
+                .find(|(m, _)| *m == id.multibody)
+                .expect("mapped");
+            for (column, &g) in map.iter().enumerate() {
+                kin.jv[l * 2 * n + g] = jacobian[(0, column)];
+                kin.jv[l * 2 * n + n + g] = jacobian[(1, column)];
+                kin.jw[l * n + g] = jacobian[(2, column)];
+            }
+        }
+    }
+
+    /// Rapier's own mass matrix of each multibody at the last pose, as (M⁻¹)ᵢᵢ per generalized
+    /// coordinate: the cross-check of the twin's M = Σ Jᵀ·M_link·J.
+    #[cfg(test)]
+    pub fn rapier_inverse_mass_diagonal(&mut self, n: usize) -> Vec<f64> {
+        let mut diagonal = vec![0.0; n];
+        for (index, map) in &self.columns {
+            let mb = self.multibodies.get_multibody_mut(*index).expect("built");
+            let inverse = mb.dof_inverse_inertia(&self.bodies);
+            for (column, &g) in map.iter().enumerate() {
+                diagonal[g] = inverse[column];
+            }
+        }
+        diagonal
+    }
+}
+
+fn to_rapier(pose: &Pose2) -> Pose {
+    Pose::new(Vector::new(pose.x, pose.y), pose.angle)
+}
+
+fn from_rapier(pose: &Pose) -> Pose2 {
+    Pose2::new(
+        pose.translation.x,
+        pose.translation.y,
+        pose.rotation.angle(),
+    )
+}
+
+/// The rotation that turns a prismatic axis into the joint frame's x axis (Rapier slides along x).
+fn axis_frame(motion: JointMotion) -> Pose2 {
+    match motion {
+        JointMotion::Prismatic { axis } => Pose2::new(0.0, 0.0, axis[1].atan2(axis[0])),
+        _ => Pose2::IDENTITY,
+    }
+}
+
+fn tree_joint(motion: JointMotion, origin: &Pose2) -> GenericJoint {
+    let align = axis_frame(motion);
+    let locked = match motion {
+        JointMotion::Revolute { .. } => JointAxesMask::LOCKED_REVOLUTE_AXES,
+        JointMotion::Prismatic { .. } => JointAxesMask::LOCKED_PRISMATIC_AXES,
+        JointMotion::Fixed => JointAxesMask::LOCKED_FIXED_AXES,
+    };
+    GenericJointBuilder::new(locked)
+        .local_frame1(to_rapier(&origin.compose(&align)))
+        .local_frame2(to_rapier(&align))
+        .build()
+}
