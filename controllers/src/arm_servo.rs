@@ -11,14 +11,16 @@
 //! current limit, `effort_limit/(G·k_t)` (the URDF effort limit is the drive's peak torque), and
 //! the integral stops while it is clipped.
 //!
-//! Cycle: from wherever the arm is at the first update, a quintic in joint space brings it to the
-//! contour's first point in `approach_time`; it settles for `settle_time`; then the path length
+//! Cycle: from wherever the arm is at the first update, a quintic in joint space brings it in
+//! `approach_time` to a clearance point `clearance` off the contour's first point on the side
+//! away from the stock (a joint-space move may sweep anywhere, so it must end in the air); a
+//! second quintic lowers it onto the first point in `settle_time`; then the path length
 //! `l` advances by the path speed each period and the joints follow `q(l)` with the velocity
 //! reference `dq/dl·V_K` and the acceleration reference `d²q/dl²·V_K²`. At the end of the contour
 //! the arm holds the last point.
 
 use crate::{ControllerError, Measurement, PlantInterface};
-use models::arm_path::{ArmGeometry, Contour, Elbow, JointPath, PathCursor};
+use models::arm_path::{ArmGeometry, Contour, ContourPath, Elbow, JointPath, PathCursor};
 use serde::Deserialize;
 
 /// The arm's joints, in the order of every per-joint array.
@@ -41,8 +43,11 @@ pub struct ServoParams {
     pub bandwidth: f64,
     /// Duration of the move to the contour's start, s.
     pub approach_time: f64,
-    /// Wait at the start point before machining, s.
+    /// Time to come down from the clearance point onto the contour's start, s.
     pub settle_time: f64,
+    /// Distance of the clearance point from the contour's start, to the left of the direction of
+    /// travel (the stock lies on the right), m.
+    pub clearance: f64,
 }
 
 impl Default for ServoParams {
@@ -58,6 +63,7 @@ impl Default for ServoParams {
             bandwidth: 80.0,
             approach_time: 2.0,
             settle_time: 0.5,
+            clearance: 0.02,
         }
     }
 }
@@ -75,6 +81,8 @@ pub struct JointGains {
 pub struct ServoDesign {
     pub gains: [JointGains; 3],
     pub program: JointPath,
+    /// Joint angles at the clearance point above the contour's start.
+    pub clearance_point: [f64; 3],
     /// Open-loop crossover of the slowest joint servo, rad/s (`|L(jω_c)| = 1`).
     pub crossover: f64,
 }
@@ -116,9 +124,24 @@ pub fn design(controller: &str, params: &ServoParams) -> Result<ServoDesign, Con
     }
     let program = JointPath::new(&params.arm, &params.contour, params.elbow)
         .map_err(|e| bad(e.to_string()))?;
+    if !(params.clearance >= 0.0 && params.clearance.is_finite()) {
+        return Err(bad("servo.clearance must be finite and ≥ 0".into()));
+    }
+    let start = program.sample(&PathCursor::default()).position;
+    let contour = ContourPath::new(&params.contour).map_err(|e| bad(e.to_string()))?;
+    let (point, tangent) = contour.point(0.0);
+    let above = [
+        point[0] - params.clearance * tangent[1],
+        point[1] + params.clearance * tangent[0],
+    ];
+    let clearance_point = params
+        .arm
+        .inverse(above, start[0] + start[1] + start[2], params.elbow)
+        .map_err(|e| bad(format!("servo.clearance: {e}")))?;
     Ok(ServoDesign {
         gains,
         program,
+        clearance_point,
         crossover: crossover(w),
     })
 }
@@ -145,7 +168,7 @@ fn crossover(w: f64) -> f64 {
 pub enum Stage {
     /// Waiting for the first measurement.
     Idle,
-    /// Moving from `from` to the first control point since `since`.
+    /// Moving from `from` over the clearance point to the first control point since `since`.
     Approach { from: [f64; 3], since: f64 },
     /// Following the contour.
     Machining,
@@ -258,8 +281,15 @@ impl ArmServo {
                         program.length() * 1e3
                     ));
                 }
-                approach(from, start, elapsed / self.params.approach_time)
-                    .scaled(self.params.approach_time)
+                let (approach_time, settle_time) =
+                    (self.params.approach_time, self.params.settle_time);
+                let above = self.design.clearance_point;
+                if elapsed < approach_time || settle_time == 0.0 {
+                    approach(from, above, elapsed / approach_time).scaled(approach_time)
+                } else {
+                    approach(above, start, (elapsed - approach_time) / settle_time)
+                        .scaled(settle_time)
+                }
             }
             Stage::Machining | Stage::Finished => {
                 if self.stage == Stage::Machining {

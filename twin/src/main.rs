@@ -25,7 +25,7 @@ enum Command {
     List,
     /// Run a scenario headless and record it to an .rrd file.
     Run(RunArgs),
-    /// Measure steps/s of a scenario with and without recording, and peak memory.
+    /// Measure steps/s of scenarios (every built-in one by default) with and without recording.
     Bench(BenchArgs),
     /// Run a seed paper's scenarios and put its claims next to the twin's figures.
     Reproduce(ReproduceArgs),
@@ -72,9 +72,8 @@ struct RunArgs {
 
 #[derive(clap::Args)]
 struct BenchArgs {
-    /// A built-in scenario name or a scenario .toml file.
-    #[arg(default_value = "whitworth-crank-pi")]
-    scenario: String,
+    /// Built-in scenario names or scenario .toml files; none: every built-in scenario.
+    scenarios: Vec<String>,
     /// Simulated time per measurement, s.
     #[arg(long, default_value_t = 10.0)]
     duration: f64,
@@ -188,16 +187,32 @@ fn bench(args: BenchArgs, registry: &Registry) -> Result<ExitCode, String> {
     let folder = std::env::temp_dir().join(format!("twin-bench-{}", std::process::id()));
     std::fs::create_dir_all(&folder).map_err(|e| e.to_string())?;
     let out = folder.join("bench.rrd");
-    for (label, recording) in [
-        ("without recording", None),
-        ("with recording", Some(out.as_path())),
-    ] {
-        let loaded = scenario::load(&args.scenario, &overrides).map_err(|e| e.to_string())?;
-        let twin = Twin::new(loaded, registry).map_err(|e| e.to_string())?;
-        let result = twin.run(recording).map_err(|e| e.to_string())?;
+    let names: Vec<String> = if args.scenarios.is_empty() {
+        scenario::BUILTIN
+            .iter()
+            .map(|(name, _)| name.to_string())
+            .collect()
+    } else {
+        args.scenarios.clone()
+    };
+    println!(
+        "{:<24} {:>9} {:>8} {:>8} {:>14} {:>14}",
+        "scenario", "dt (s)", "substeps", "steps", "steps/s bare", "steps/s rec."
+    );
+    for name in &names {
+        let mut rates = [0.0; 2];
+        let mut shape = (0.0, 0, 0);
+        for (rate, recording) in rates.iter_mut().zip([None, Some(out.as_path())]) {
+            let loaded = scenario::load(name, &overrides).map_err(|e| e.to_string())?;
+            shape = (loaded.scenario.dt, loaded.scenario.substeps, 0);
+            let twin = Twin::new(loaded, registry).map_err(|e| e.to_string())?;
+            let result = twin.run(recording).map_err(|e| e.to_string())?;
+            shape.2 = result.steps;
+            *rate = result.steps_per_s;
+        }
         println!(
-            "{:<18} {:>9} steps in {:>7.3} s: {:>9.0} steps/s",
-            label, result.steps, result.wall_s, result.steps_per_s
+            "{:<24} {:>9} {:>8} {:>8} {:>14.0} {:>14.0}",
+            name, shape.0, shape.1, shape.2, rates[0], rates[1]
         );
     }
     let _ = std::fs::remove_dir_all(&folder);

@@ -65,7 +65,7 @@ mod spindle;
 
 use super::{joint, link, process_params, Machine, MachineError};
 use crate::mechanism::Mechanism;
-use crate::physics::{Load, MechanismState};
+use crate::physics::{Load, MechanismState, NO_DAMPING};
 use figures::{Figures, Sample};
 use models::arm_milling::{CutLoad, Cutter, CutterParams, MillingMode, Stock};
 use models::arm_path::{Contour, ContourPath};
@@ -77,6 +77,8 @@ const MACHINE: &str = "arm";
 const JOINTS: [&str; 3] = ["shoulder", "elbow", "wrist"];
 /// Lever of the couples that carry the spindle torques, m.
 const COUPLE_ARM: f64 = 0.01;
+/// Velocity step of the cut's finite-difference slope, m/s (the cut is linear in speed).
+const CUT_VELOCITY_STEP: f64 = 1e-6;
 
 /// `[process.drives]`: one drive per arm joint.
 #[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
@@ -165,6 +167,8 @@ pub struct Arm {
     spindle_speed: f64,
     cut: CutLoad,
     cut_force: [f64; 2],
+    /// ∂cut_force/∂(tool velocity), N·s/m.
+    cut_damping: [[f64; 2]; 2],
     spindle_torque: f64,
     figures: Figures,
     time: f64,
@@ -255,6 +259,7 @@ impl Arm {
             spindle_speed: 0.0,
             cut: CutLoad::default(),
             cut_force: [0.0; 2],
+            cut_damping: NO_DAMPING,
             spindle_torque: 0.0,
             time: 0.0,
         })
@@ -277,11 +282,13 @@ fn couple(link: usize, centre: [f64; 2], torque: f64, loads: &mut Vec<Load>) {
         link,
         force: [0.0, f],
         point: [centre[0] + COUPLE_ARM, centre[1]],
+        damping: NO_DAMPING,
     });
     loads.push(Load {
         link,
         force: [0.0, -f],
         point: [centre[0] - COUPLE_ARM, centre[1]],
+        damping: NO_DAMPING,
     });
 }
 
@@ -333,21 +340,38 @@ impl Machine for Arm {
         } else {
             0.0
         };
-        let path_speed = velocity[0] * seen.tangent[0] + velocity[1] * seen.tangent[1];
         // Counter-clockwise with the stock on the right of travel: up milling.
         let mode = if self.spindle_speed >= 0.0 {
             MillingMode::Up
         } else {
             MillingMode::Down
         };
-        self.cut = self
-            .cutter
-            .load(mode, radial_depth, path_speed, self.spindle_speed);
-        let right = [seen.tangent[1], -seen.tangent[0]];
-        self.cut_force = [
-            self.cut.along * seen.tangent[0] + self.cut.towards_stock * right[0],
-            self.cut.along * seen.tangent[1] + self.cut.towards_stock * right[1],
-        ];
+        let cut_at = |velocity: [f64; 2]| -> (CutLoad, [f64; 2]) {
+            let right = [seen.tangent[1], -seen.tangent[0]];
+            let path_speed = velocity[0] * seen.tangent[0] + velocity[1] * seen.tangent[1];
+            let cut = self
+                .cutter
+                .load(mode, radial_depth, path_speed, self.spindle_speed);
+            let force = [
+                cut.along * seen.tangent[0] + cut.towards_stock * right[0],
+                cut.along * seen.tangent[1] + cut.towards_stock * right[1],
+            ];
+            (cut, force)
+        };
+        (self.cut, self.cut_force) = cut_at(velocity);
+        // The cut is a damper of thousands of N·s/m on the tool: hand the integrator its slope.
+        let step = CUT_VELOCITY_STEP;
+        for axis in 0..2 {
+            let mut nudged = velocity;
+            nudged[axis] += step;
+            let (_, force) = cut_at(nudged);
+            for ((slope, nudged_force), force) in
+                self.cut_damping.iter_mut().zip(force).zip(self.cut_force)
+            {
+                slope[axis] = (nudged_force - force) / step;
+            }
+        }
+        let path_speed = velocity[0] * seen.tangent[0] + velocity[1] * seen.tangent[1];
         let currents = self.currents();
         signals.copy_from_slice(&[
             currents[0],
@@ -405,6 +429,7 @@ impl Machine for Arm {
                 link: self.cutter_link,
                 force: self.cut_force,
                 point: centre,
+                damping: self.cut_damping,
             });
             let resisting = -self.spindle.set_speed().signum() * self.cut.torque;
             couple(self.cutter_link, centre, resisting, loads);
@@ -415,5 +440,51 @@ impl Machine for Arm {
         let mut metrics = self.figures.metrics(self.time);
         metrics.push(("deep_zone_depth".into(), self.deep_zone_depth));
         metrics
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn arm(drive_power: &str) -> Arm {
+        let text = include_str!("../../../urdf/arm.urdf");
+        let mechanism = crate::urdf::load_str(text, "arm.urdf").expect("loads");
+        let process: toml::Table = format!("drive_power = \"{drive_power}\"")
+            .parse()
+            .expect("toml");
+        Arm::new(&mechanism, &process).expect("builds")
+    }
+
+    #[test]
+    fn drives_off_are_torque_free_and_a_zero_command_brakes() {
+        let mut applied = [0.0; 3];
+        // Power off: whatever is commanded, no torque, and the spindle stays unpowered too.
+        let mut off = arm("off");
+        off.joint_speeds = [3.0, -2.0, 5.0];
+        off.spindle_speed = 100.0;
+        for _ in 0..100 {
+            off.drive(1e-3, &[20.0, -20.0, 20.0], &mut applied);
+            assert_eq!(applied, [0.0; 3]);
+            assert_eq!(off.spindle_torque, 0.0);
+        }
+        // Power on, zero current commanded: below 11.4 rad/s the current loop holds i ≈ 0
+        // against the back-EMF; beyond, the 48 V supply runs out and the joint is braked.
+        for (speed, braked) in [(2.0, false), (15.0, true)] {
+            let mut on = arm("on");
+            on.joint_speeds = [speed, 0.0, 0.0];
+            for _ in 0..100 {
+                on.drive(1e-3, &[0.0; 3], &mut applied);
+            }
+            println!(
+                "shoulder at {speed} rad/s, zero command: {:.3} N·m",
+                applied[0]
+            );
+            if braked {
+                assert!(applied[0] < -1.0, "{speed} rad/s: {} N·m", applied[0]);
+            } else {
+                assert!(applied[0].abs() < 0.05, "{speed} rad/s: {} N·m", applied[0]);
+            }
+        }
     }
 }

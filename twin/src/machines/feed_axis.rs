@@ -26,7 +26,7 @@
 
 use super::{joint, process_params, Machine, MachineError};
 use crate::mechanism::{JointMotion, Mechanism, Pose2};
-use crate::physics::{Load, MechanismState};
+use crate::physics::{Load, MechanismState, NO_DAMPING};
 use models::micromilling::{MicroMillingCut, MicroMillingParams};
 use models::reference::Reference;
 use serde::Deserialize;
@@ -273,6 +273,7 @@ impl Machine for FeedAxis {
             link: self.table_link,
             force: [ax * self.cutting_force, ay * self.cutting_force],
             point: [table.x, table.y],
+            damping: NO_DAMPING,
         });
     }
 

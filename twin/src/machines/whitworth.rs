@@ -6,7 +6,7 @@ mod cutting;
 
 use super::{joint, link, process_params, Machine, MachineError};
 use crate::mechanism::Mechanism;
-use crate::physics::{Load, MechanismState};
+use crate::physics::{Load, MechanismState, NO_DAMPING};
 use cutting::{Cutting, Workpiece};
 use models::whitworth::Geometry;
 use serde::Deserialize;
@@ -146,6 +146,7 @@ impl Machine for Whitworth {
                 link: self.ram_link,
                 force: [0.0, self.contact_force],
                 point: [ram.x, ram.y],
+                damping: NO_DAMPING,
             });
         }
     }

@@ -131,13 +131,24 @@ impl Model {
     }
 }
 
-/// A process load held over a step: a world force at a point fixed on a link.
+/// A process load over a step: a world force at a point fixed on a link, varying with the
+/// point's velocity as `force + damping·(v − start_velocity)`.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub(super) struct HeldLoad {
     pub link: usize,
     pub force: [f64; 2],
     /// The point in the link's frame.
     pub local_point: [f64; 2],
+    pub damping: [[f64; 2]; 2],
+    pub start_velocity: [f64; 2],
+}
+
+/// What acts on the mechanism over a step: generalized joint efforts, process loads, gravity.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct Inputs<'a> {
+    pub efforts: &'a [f64],
+    pub loads: &'a [HeldLoad],
+    pub gravity: [f64; 2],
 }
 
 /// Workspace of the equations of motion: no allocation once sized.
@@ -183,22 +194,18 @@ impl Dynamics {
         }
     }
 
-    /// q̈ for the state (q, q̇) posed in `kin`, under generalized joint efforts `efforts` and
-    /// `loads`, into `acceleration`. Solves the constrained system above by its Schur complement.
-    #[allow(clippy::too_many_arguments)]
+    /// q̈ for the state (q, q̇) posed in `kin` under `inputs`, into `acceleration`. Solves the
+    /// constrained system above by its Schur complement.
     pub fn acceleration(
         &mut self,
         model: &Model,
         kin: &Kinematics,
-        q: &[f64],
-        v: &[f64],
-        efforts: &[f64],
-        loads: &[HeldLoad],
-        gravity: [f64; 2],
+        (q, v): (&[f64], &[f64]),
+        inputs: &Inputs,
         acceleration: &mut [f64],
     ) {
         self.motion.update(model, kin, v);
-        self.generalized_forces(model, kin, q, v, efforts, loads, gravity);
+        self.generalized_forces(model, kin, (q, v), inputs);
         self.factor_mass_matrix(model, kin);
         let n = kin.n;
         acceleration.copy_from_slice(&self.force);
@@ -272,19 +279,17 @@ impl Dynamics {
         ldl_solve(&self.mass, kin.n, column);
     }
 
-    #[allow(clippy::too_many_arguments)]
+    /// Q: efforts, springs, damping, gravity and loads, less the velocity-product forces.
     fn generalized_forces(
         &mut self,
         model: &Model,
         kin: &Kinematics,
-        q: &[f64],
-        v: &[f64],
-        efforts: &[f64],
-        loads: &[HeldLoad],
-        gravity: [f64; 2],
+        (q, v): (&[f64], &[f64]),
+        inputs: &Inputs,
     ) {
+        let gravity = inputs.gravity;
         for (g, f) in self.force.iter_mut().enumerate() {
-            *f = efforts[g] - model.damping[g] * v[g];
+            *f = inputs.efforts[g] - model.damping[g] * v[g];
             if let Some(spring) = model.spring[g] {
                 *f -= spring.stiffness * (q[g] - spring.reference);
             }
@@ -300,11 +305,20 @@ impl Dynamics {
             ];
             self.add_wrench(kin, l, f, 0.0);
         }
-        for load in loads {
+        for load in inputs.loads {
             let point = kin.poses[load.link].apply(load.local_point[0], load.local_point[1]);
+            let dv = sub(
+                self.motion.point_velocity(kin, load.link, point, v),
+                load.start_velocity,
+            );
+            let [[cxx, cxy], [cyx, cyy]] = load.damping;
+            let force = [
+                load.force[0] + cxx * dv[0] + cxy * dv[1],
+                load.force[1] + cyx * dv[0] + cyy * dv[1],
+            ];
             let r = sub(point, kin.com[load.link]);
-            let torque = r[0] * load.force[1] - r[1] * load.force[0];
-            self.add_wrench(kin, load.link, load.force, torque);
+            let torque = r[0] * force[1] - r[1] * force[0];
+            self.add_wrench(kin, load.link, force, torque);
         }
     }
 

@@ -19,7 +19,7 @@ mod dynamics;
 mod rapier_model;
 
 use crate::mechanism::{JointMotion, Mechanism, Pose2};
-use dynamics::{Dynamics, HeldLoad, Kinematics, Model};
+use dynamics::{Dynamics, HeldLoad, Inputs, Kinematics, Model};
 use rapier_model::RapierModel;
 
 /// Largest loop-constraint residual (m, rad) the position projection leaves.
@@ -48,10 +48,18 @@ pub struct MechanismState {
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Load {
     pub link: usize,
+    /// The force at the start of the step, N.
     pub force: [f64; 2],
     /// Where it acts, world coordinates (at the start of the step; it moves with the link).
     pub point: [f64; 2],
+    /// How the force changes with the point's velocity, ∂F/∂v (N·s/m, rows x and y): over the
+    /// step the force is `force + damping·(v − v_start)`, so a stiff velocity-dependent process
+    /// (a cut is a damper of thousands of N·s/m) is integrated with the motion, not frozen.
+    pub damping: [[f64; 2]; 2],
 }
+
+/// A load that does not depend on velocity.
+pub const NO_DAMPING: [[f64; 2]; 2] = [[0.0; 2]; 2];
 
 /// Solver settings a scenario may tune.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -129,10 +137,17 @@ impl Physics {
             let pose = self.kin.poses[load.link];
             let (s, c) = pose.angle.sin_cos();
             let (dx, dy) = (load.point[0] - pose.x, load.point[1] - pose.y);
+            let [vx, vy, omega] = self.kin.com_velocity(load.link, &self.v);
+            let [cx, cy] = self.kin.com[load.link];
             HeldLoad {
                 link: load.link,
                 force: load.force,
                 local_point: [c * dx + s * dy, -s * dx + c * dy],
+                damping: load.damping,
+                start_velocity: [
+                    vx - omega * (load.point[1] - cy),
+                    vy + omega * (load.point[0] - cx),
+                ],
             }
         }));
         let h = self.settings.dt / self.settings.substeps as f64;
@@ -164,9 +179,13 @@ impl Physics {
             efforts,
             loads,
         } = self;
-        let gravity = settings.gravity;
+        let inputs = Inputs {
+            efforts,
+            loads,
+            gravity: settings.gravity,
+        };
         let n = q.len();
-        dynamics.acceleration(model, kin, q, v, efforts, loads, gravity, &mut stage.a[0]);
+        dynamics.acceleration(model, kin, (q, v), &inputs, &mut stage.a[0]);
         // Stage k starts from the previous stage's rates: (q + c·h·v_k, v + c·h·a_k).
         for (k, step) in [h / 2.0, h / 2.0, h].into_iter().enumerate() {
             for g in 0..n {
@@ -178,11 +197,8 @@ impl Physics {
             dynamics.acceleration(
                 model,
                 &stage.kin,
-                &stage.q,
-                &stage.v[k],
-                efforts,
-                loads,
-                gravity,
+                (&stage.q, &stage.v[k]),
+                &inputs,
                 &mut stage.a[k + 1],
             );
         }

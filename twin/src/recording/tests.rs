@@ -58,36 +58,26 @@ fn poses(links: usize, t: f64) -> Vec<Pose2> {
         .collect()
 }
 
-/// The `rerun` CLI, when available: `$TWIN_RERUN_CLI`, the project's venv, or `rerun` on PATH.
-fn rerun_cli() -> Option<PathBuf> {
-    let candidates = std::env::var_os("TWIN_RERUN_CLI")
+/// The `rerun` CLI: `$TWIN_RERUN_CLI` (set by `scripts/test-tools`), else `rerun` on PATH.
+fn rerun_cli() -> PathBuf {
+    let cli = std::env::var_os("TWIN_RERUN_CLI")
         .map(PathBuf::from)
-        .into_iter()
-        .chain([
-            PathBuf::from("/root/.cache/twin/rerun-venv/bin/rerun"),
-            PathBuf::from("rerun"),
-        ]);
-    for cli in candidates {
-        let ok = std::process::Command::new(&cli)
-            .arg("--version")
-            .output()
-            .is_ok_and(|out| out.status.success());
-        if ok {
-            return Some(cli);
-        }
-    }
-    None
+        .unwrap_or_else(|| PathBuf::from("rerun"));
+    let ok = std::process::Command::new(&cli)
+        .arg("--version")
+        .output()
+        .is_ok_and(|out| out.status.success());
+    assert!(
+        ok,
+        "the Rerun CLI ({}) is needed to verify recordings: run `eval \"$(scripts/test-tools)\"`",
+        cli.display()
+    );
+    cli
 }
 
-/// Runs `rerun rrd verify` on the file when the CLI is available; prints a note otherwise.
+/// Runs `rerun rrd verify` on the file.
 fn verify(path: &Path) {
-    let Some(cli) = rerun_cli() else {
-        eprintln!(
-            "note: rerun CLI not found, `rerun rrd verify {}` skipped",
-            path.display()
-        );
-        return;
-    };
+    let cli = rerun_cli();
     let out = std::process::Command::new(&cli)
         .args(["rrd", "verify"])
         .arg(path)
