@@ -51,8 +51,11 @@ for path in sys.argv[1:]:
 fn every_shipped_urdf_loads_in_mujoco_with_the_same_tree() {
     let python = std::env::var_os("TWIN_TOOLS_PYTHON").unwrap_or_else(|| "python3".into());
     let files = shipped_urdfs();
+    // MuJoCo writes its warnings to MUJOCO_LOG.TXT in the working folder: keep it out of the tree.
+    let scratch = twin_tests::scratch("mujoco");
     let out = tool(
         Command::new(&python)
+            .current_dir(&scratch)
             .arg("-c")
             .arg(MUJOCO_LOAD)
             .args(&files),
