@@ -26,19 +26,33 @@ pub(super) fn ldl_factor(a: &mut [f64], n: usize, floor: f64) {
 
 /// Solves L·D·Lᵀ·x = b in place (`b` becomes x) with the factors of [`ldl_factor`].
 pub(super) fn ldl_solve(f: &[f64], n: usize, b: &mut [f64]) {
-    for i in 0..n {
-        for k in 0..i {
-            b[i] -= f[i * n + k] * b[k];
-        }
+    ldl_forward(f, n, b);
+    ldl_backward(f, n, b);
+}
+
+/// L·z = b in place (`b` becomes z).
+pub(super) fn ldl_forward(f: &[f64], n: usize, b: &mut [f64]) {
+    let (f, b) = (&f[..n * n], &mut b[..n]);
+    for i in 1..n {
+        let row = &f[i * n..i * n + i];
+        let sum: f64 = row.iter().zip(&b[..i]).map(|(l, z)| l * z).sum();
+        b[i] -= sum;
     }
+}
+
+/// D·Lᵀ·x = z in place (`z` becomes x): the second half of [`ldl_solve`].
+pub(super) fn ldl_backward(f: &[f64], n: usize, z: &mut [f64]) {
+    let (f, z) = (&f[..n * n], &mut z[..n]);
     for i in 0..n {
         let d = f[i * n + i];
-        b[i] = if d == 0.0 { 0.0 } else { b[i] / d };
+        z[i] = if d == 0.0 { 0.0 } else { z[i] / d };
     }
     for i in (0..n).rev() {
+        let mut x = z[i];
         for k in i + 1..n {
-            b[i] -= f[k * n + i] * b[k];
+            x -= f[k * n + i] * z[k];
         }
+        z[i] = x;
     }
 }
 

@@ -16,18 +16,71 @@
 //! Coordinates are Rapier's: a revolute joint about −z counts its angle about +z (the caller
 //! converts URDF signs at the door).
 
-use super::dense::{ldl_factor, ldl_solve};
-use crate::mechanism::{JointMotion, LoopJoint, Mechanism, Pose2};
+use super::dense::{ldl_backward, ldl_factor, ldl_forward, ldl_solve};
+use crate::mechanism::{JointMotion, Mechanism, Pose2};
 
 /// Pivots below this share of the largest make a loop constraint count as redundant.
 const DEPENDENT_PIVOT: f64 = 1e-12;
+
+/// A link frame in the world, its rotation kept as cos and sin (as Rapier keeps it): the
+/// equations transform many points and directions per evaluation and need no angle.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(super) struct Frame {
+    pub origin: [f64; 2],
+    pub cos: f64,
+    pub sin: f64,
+}
+
+impl Frame {
+    pub const IDENTITY: Frame = Frame {
+        origin: [0.0; 2],
+        cos: 1.0,
+        sin: 0.0,
+    };
+
+    pub fn of(pose: &Pose2) -> Self {
+        let (sin, cos) = pose.angle.sin_cos();
+        Frame {
+            origin: [pose.x, pose.y],
+            cos,
+            sin,
+        }
+    }
+
+    pub fn pose(&self) -> Pose2 {
+        Pose2::new(self.origin[0], self.origin[1], self.sin.atan2(self.cos))
+    }
+
+    /// A direction from this frame to the world.
+    pub fn rotate(&self, d: [f64; 2]) -> [f64; 2] {
+        [
+            self.cos * d[0] - self.sin * d[1],
+            self.sin * d[0] + self.cos * d[1],
+        ]
+    }
+
+    /// A point from this frame to the world.
+    pub fn apply(&self, p: [f64; 2]) -> [f64; 2] {
+        let [x, y] = self.rotate(p);
+        [self.origin[0] + x, self.origin[1] + y]
+    }
+
+    /// A world point into this frame.
+    pub fn local(&self, p: [f64; 2]) -> [f64; 2] {
+        let [dx, dy] = sub(p, self.origin);
+        [
+            self.cos * dx + self.sin * dy,
+            -self.sin * dx + self.cos * dy,
+        ]
+    }
+}
 
 /// Link poses and body Jacobians at one configuration, over all `n` generalized coordinates.
 #[derive(Debug, Clone, Default)]
 pub(super) struct Kinematics {
     pub n: usize,
     /// Per link: the link frame in the world.
-    pub poses: Vec<Pose2>,
+    pub frames: Vec<Frame>,
     /// Per link: the centre of mass in the world.
     pub com: Vec<[f64; 2]>,
     /// Per link: ∂v_com/∂q̇, rows x then y, `2·n` values.
@@ -39,7 +92,7 @@ pub(super) struct Kinematics {
 impl Kinematics {
     pub fn resize(&mut self, links: usize, n: usize) {
         self.n = n;
-        self.poses.resize(links, Pose2::IDENTITY);
+        self.frames.resize(links, Frame::IDENTITY);
         self.com.resize(links, [0.0; 2]);
         self.jv.resize(links * 2 * n, 0.0);
         self.jw.resize(links * n, 0.0);
@@ -84,6 +137,20 @@ pub(super) struct Model {
     pub limits: Vec<Option<[f64; 2]>>,
     /// Rows of φ each loop joint adds.
     pub constraint_count: usize,
+    /// Per tree joint: a prismatic axis in the parent's frame.
+    pub slide_axes: Vec<Option<[f64; 2]>>,
+    /// Per loop joint: its frames' origins in their links, the axis in link 1's frame, and
+    /// the angle of frame 2 less that of frame 1 as seen from their links.
+    pub loop_geometry: Vec<LoopGeometry>,
+}
+
+/// The constant part of a loop joint's geometry.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(super) struct LoopGeometry {
+    pub point1: [f64; 2],
+    pub point2: [f64; 2],
+    pub axis1: Option<[f64; 2]>,
+    pub frame_angle: f64,
 }
 
 impl Model {
@@ -97,6 +164,27 @@ impl Model {
             spring: Vec::new(),
             limits: Vec::new(),
             constraint_count: 2 * mechanism.loops.len(),
+            slide_axes: mechanism
+                .joints
+                .iter()
+                .map(|j| match j.motion {
+                    JointMotion::Prismatic { axis } => Some(j.origin.rotate(axis[0], axis[1])),
+                    _ => None,
+                })
+                .collect(),
+            loop_geometry: mechanism
+                .loops
+                .iter()
+                .map(|l| LoopGeometry {
+                    point1: [l.frame1.x, l.frame1.y],
+                    point2: [l.frame2.x, l.frame2.y],
+                    axis1: match l.motion {
+                        JointMotion::Prismatic { axis } => Some(l.frame1.rotate(axis[0], axis[1])),
+                        _ => None,
+                    },
+                    frame_angle: l.frame2.angle - l.frame1.angle,
+                })
+                .collect(),
         };
         for joint in &mechanism.joints {
             let sign = match joint.motion {
@@ -224,22 +312,35 @@ impl Dynamics {
     /// constraint rows `rhs` (in `self.lambda`) ask for, mass-weighted: `delta −= M⁻¹·Gᵀ·S⁻¹·rhs`.
     /// Needs `self.mass` factored and `self.g` filled.
     fn solve_constrained(&mut self, n: usize, m: usize, delta: &mut [f64]) {
+        // With M = L·D·Lᵀ and Z = L⁻¹·Gᵀ: S = G·M⁻¹·Gᵀ = Zᵀ·D⁻¹·Z and M⁻¹·Gᵀ·λ = L⁻ᵀ·D⁻¹·Z·λ.
         for r in 0..m {
             let column = &mut self.y[r * n..(r + 1) * n];
             column.copy_from_slice(&self.g[r * n..(r + 1) * n]);
-            ldl_solve(&self.mass, n, column);
+            ldl_forward(&self.mass, n, column);
         }
         for r in 0..m {
-            for c in 0..m {
-                self.s[r * m + c] = dot(&self.g[r * n..(r + 1) * n], &self.y[c * n..(c + 1) * n]);
+            for c in 0..=r {
+                let (zr, zc) = (&self.y[r * n..(r + 1) * n], &self.y[c * n..(c + 1) * n]);
+                let value: f64 = (0..n)
+                    .filter(|&k| self.mass[k * n + k] != 0.0)
+                    .map(|k| zr[k] * zc[k] / self.mass[k * n + k])
+                    .sum();
+                self.s[r * m + c] = value;
+                self.s[c * m + r] = value;
             }
         }
         ldl_factor(&mut self.s, m, DEPENDENT_PIVOT);
         ldl_solve(&self.s, m, &mut self.lambda);
+        let correction = &mut self.force;
+        correction.fill(0.0);
         for r in 0..m {
-            for (d, y) in delta.iter_mut().zip(&self.y[r * n..(r + 1) * n]) {
-                *d -= y * self.lambda[r];
+            for (c, z) in correction.iter_mut().zip(&self.y[r * n..(r + 1) * n]) {
+                *c += z * self.lambda[r];
             }
+        }
+        ldl_backward(&self.mass, n, correction);
+        for (d, c) in delta.iter_mut().zip(correction.iter()) {
+            *d -= c;
         }
     }
 
@@ -306,7 +407,7 @@ impl Dynamics {
             self.add_wrench(kin, l, f, 0.0);
         }
         for load in inputs.loads {
-            let point = kin.poses[load.link].apply(load.local_point[0], load.local_point[1]);
+            let point = kin.frames[load.link].apply(load.local_point);
             let dv = sub(
                 self.motion.point_velocity(kin, load.link, point, v),
                 load.start_velocity,
@@ -365,7 +466,10 @@ impl Dynamics {
         for (l, closure) in model.mechanism.loops.iter().enumerate() {
             let rows = &mut self.g[2 * l * n..(2 * l + 2) * n];
             let (row_a, row_b) = rows.split_at_mut(n);
-            let (phi, gamma) = loop_rows(kin, closure, row_a, row_b, v.map(|v| (v, &self.motion)));
+            let ends = (closure.link1, closure.link2);
+            let geometry = &model.loop_geometry[l];
+            let velocity = v.map(|v| (v, &self.motion));
+            let (phi, gamma) = loop_rows(kin, ends, geometry, (row_a, row_b), velocity);
             self.phi[2 * l..2 * l + 2].copy_from_slice(&phi);
             self.gamma[2 * l..2 * l + 2].copy_from_slice(&gamma);
         }
@@ -390,11 +494,9 @@ impl LinkMotion {
         for (j, joint) in model.mechanism.joints.iter().enumerate() {
             let (p, c) = (joint.parent, joint.child);
             let wp = self.omega[p];
-            let mut a = self.point_vp(kin, p, origin(&kin.poses[c]));
-            if let (JointMotion::Prismatic { axis }, Some(g)) =
-                (joint.motion, model.dof_of_joint[j])
-            {
-                let [ux, uy] = kin.poses[p].compose(&joint.origin).rotate(axis[0], axis[1]);
+            let mut a = self.point_vp(kin, p, kin.frames[c].origin);
+            if let (Some(axis), Some(g)) = (model.slide_axes[j], model.dof_of_joint[j]) {
+                let [ux, uy] = kin.frames[p].rotate(axis);
                 a[0] -= 2.0 * wp * v[g] * uy;
                 a[1] += 2.0 * wp * v[g] * ux;
             }
@@ -405,7 +507,7 @@ impl LinkMotion {
     /// Velocity-product acceleration of a world point fixed on `link`.
     fn point_vp(&self, kin: &Kinematics, link: usize, point: [f64; 2]) -> [f64; 2] {
         let w2 = self.omega[link] * self.omega[link];
-        let r = sub(point, origin(&kin.poses[link]));
+        let r = sub(point, kin.frames[link].origin);
         [
             self.origin_vp[link][0] - w2 * r[0],
             self.origin_vp[link][1] - w2 * r[1],
@@ -435,20 +537,18 @@ impl LinkMotion {
 /// frames stay aligned.
 fn loop_rows(
     kin: &Kinematics,
-    closure: &LoopJoint,
-    row_a: &mut [f64],
-    row_b: &mut [f64],
+    (l1, l2): (usize, usize),
+    geometry: &LoopGeometry,
+    (row_a, row_b): (&mut [f64], &mut [f64]),
     velocity: Option<(&[f64], &LinkMotion)>,
 ) -> ([f64; 2], [f64; 2]) {
-    let (l1, l2) = (closure.link1, closure.link2);
-    let frame1 = kin.poses[l1].compose(&closure.frame1);
-    let frame2 = kin.poses[l2].compose(&closure.frame2);
-    let (p1, p2) = (origin(&frame1), origin(&frame2));
+    let (f1, f2) = (&kin.frames[l1], &kin.frames[l2]);
+    let (p1, p2) = (f1.apply(geometry.point1), f2.apply(geometry.point2));
     let d = sub(p2, p1);
     let mut gamma = [0.0; 2];
-    match closure.motion {
-        JointMotion::Prismatic { axis } => {
-            let u = frame1.rotate(axis[0], axis[1]);
+    match geometry.axis1 {
+        Some(axis) => {
+            let u = f1.rotate(axis);
             let normal = [-u[1], u[0]];
             // Jacobian of n·(p₂ − p₁): n·(J_p₂ − J_p₁) + ((z × n)·d)·Jω₁, as ṅ = ω₁ z × n.
             point_rows(kin, l2, p2, 1.0, normal, row_a);
@@ -461,9 +561,12 @@ fn loop_rows(
                 row_a[g] += lever * jw1[g];
                 row_b[g] = jw2[g] - jw1[g];
             }
+            // θ₂ − θ₁ of the links from their relative rotation R₁ᵀ·R₂, less the frames' offset.
+            let relative =
+                (f1.cos * f2.sin - f1.sin * f2.cos).atan2(f1.cos * f2.cos + f1.sin * f2.sin);
             let phi = [
                 normal[0] * d[0] + normal[1] * d[1],
-                wrap(frame2.angle - frame1.angle),
+                wrap(relative + geometry.frame_angle),
             ];
             if let Some((v, motion)) = velocity {
                 let w1 = motion.omega[l1];
@@ -479,7 +582,7 @@ fn loop_rows(
             }
             (phi, gamma)
         }
-        _ => {
+        None => {
             point_rows(kin, l2, p2, 1.0, [1.0, 0.0], row_a);
             point_rows(kin, l1, p1, -1.0, [1.0, 0.0], row_a);
             point_rows(kin, l2, p2, 1.0, [0.0, 1.0], row_b);
@@ -508,10 +611,6 @@ fn point_rows(
         row[g] +=
             scale * (direction[0] * (jx[g] - ry * jw[g]) + direction[1] * (jy[g] + rx * jw[g]));
     }
-}
-
-fn origin(pose: &Pose2) -> [f64; 2] {
-    [pose.x, pose.y]
 }
 
 fn sub(a: [f64; 2], b: [f64; 2]) -> [f64; 2] {

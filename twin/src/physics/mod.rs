@@ -134,15 +134,13 @@ impl Physics {
         }
         self.loads.clear();
         self.loads.extend(loads.iter().map(|load| {
-            let pose = self.kin.poses[load.link];
-            let (s, c) = pose.angle.sin_cos();
-            let (dx, dy) = (load.point[0] - pose.x, load.point[1] - pose.y);
+            let frame = self.kin.frames[load.link];
             let [vx, vy, omega] = self.kin.com_velocity(load.link, &self.v);
             let [cx, cy] = self.kin.com[load.link];
             HeldLoad {
                 link: load.link,
                 force: load.force,
-                local_point: [c * dx + s * dy, -s * dx + c * dy],
+                local_point: frame.local(load.point),
                 damping: load.damping,
                 start_velocity: [
                     vx - omega * (load.point[1] - cy),
@@ -298,11 +296,12 @@ impl Physics {
         state.link_poses.clear();
         state.link_velocities.clear();
         state.link_angular_velocities.clear();
-        for (l, pose) in self.kin.poses.iter().enumerate() {
+        for (l, frame) in self.kin.frames.iter().enumerate() {
             let [vx, vy, omega] = self.kin.com_velocity(l, &self.v);
             let [cx, cy] = self.kin.com[l];
+            let pose = frame.pose();
             // The frame origin moves as the centre of mass plus ω × (origin − com).
-            state.link_poses.push(*pose);
+            state.link_poses.push(pose);
             state
                 .link_velocities
                 .push([vx - omega * (pose.y - cy), vy + omega * (pose.x - cx)]);

@@ -3,7 +3,7 @@
 //! kinematics and read back as link poses and body Jacobians. Nothing here integrates: the twin
 //! advances the state itself ([`super::Physics`]).
 
-use super::dynamics::Kinematics;
+use super::dynamics::{Frame, Kinematics};
 use crate::mechanism::{JointMotion, Mechanism, Pose2};
 use rapier2d_f64::prelude::*;
 
@@ -128,15 +128,20 @@ impl RapierModel {
         kin.jw.fill(0.0);
         for (l, link) in mechanism.links.iter().enumerate() {
             let Some(id) = self.links[l] else {
-                kin.poses[l] = self.ground;
+                kin.frames[l] = Frame::of(&self.ground);
                 kin.com[l] = [self.ground.x, self.ground.y];
                 continue;
             };
             let mb = self.multibodies.get_multibody(id.multibody).expect("built");
-            let pose = from_rapier(mb.link(id.id).expect("link").local_to_world());
+            let pose = mb.link(id.id).expect("link").local_to_world();
+            let frame = Frame {
+                origin: [pose.translation.x, pose.translation.y],
+                cos: pose.rotation.re,
+                sin: pose.rotation.im,
+            };
             let com = link.inertial.map_or([0.0; 2], |i| i.centre_of_mass);
-            kin.poses[l] = pose;
-            kin.com[l] = pose.apply(com[0], com[1]);
+            kin.frames[l] = frame;
+            kin.com[l] = frame.apply(com);
             let jacobian = mb.body_jacobian(id.id);
             let (_, map) = self
                 .columns
@@ -169,14 +174,6 @@ impl RapierModel {
 
 fn to_rapier(pose: &Pose2) -> Pose {
     Pose::new(Vector::new(pose.x, pose.y), pose.angle)
-}
-
-fn from_rapier(pose: &Pose) -> Pose2 {
-    Pose2::new(
-        pose.translation.x,
-        pose.translation.y,
-        pose.rotation.angle(),
-    )
 }
 
 /// The rotation that turns a prismatic axis into the joint frame's x axis (Rapier slides along x).
