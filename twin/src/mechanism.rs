@@ -43,6 +43,20 @@ impl Pose2 {
     }
 }
 
+/// The angle brought into (−π, π]; one already there (or not finite) is returned as it is.
+pub fn wrap_angle(angle: f64) -> f64 {
+    use std::f64::consts::{PI, TAU};
+    if !angle.is_finite() || (-PI < angle && angle <= PI) {
+        return angle;
+    }
+    let wrapped = angle.rem_euclid(TAU);
+    if wrapped > PI {
+        wrapped - TAU
+    } else {
+        wrapped
+    }
+}
+
 /// A drawable or collision outline in a link's frame.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Shape {

@@ -69,7 +69,7 @@ use crate::mechanism::Mechanism;
 use crate::physics::{Load, MechanismState, NO_DAMPING};
 use figures::{Figures, Sample};
 use models::arm_milling::{CutLoad, Cutter, CutterParams, MillingMode, Stock};
-use models::arm_path::{Contour, ContourPath};
+use models::arm_path::{Contour, ContourPath, Projection};
 use models::drive::{Drive, DriveParams};
 use serde::Deserialize;
 use spindle::{Spindle, SpindleParams};
@@ -266,6 +266,41 @@ impl Arm {
         })
     }
 
+    /// The cut's force on the tool (world) at the tool's `velocity`, and its slope ∂F/∂v: the
+    /// cut is a damper of thousands of N·s/m on the tool, integrated with the motion.
+    fn update_cut(&mut self, seen: &Projection, radial_depth: f64, velocity: [f64; 2]) {
+        // Counter-clockwise with the stock on the right of travel: up milling.
+        let mode = if self.spindle_speed >= 0.0 {
+            MillingMode::Up
+        } else {
+            MillingMode::Down
+        };
+        let cut_at = |velocity: [f64; 2]| -> (CutLoad, [f64; 2]) {
+            let right = [seen.tangent[1], -seen.tangent[0]];
+            let path_speed = velocity[0] * seen.tangent[0] + velocity[1] * seen.tangent[1];
+            let cut = self
+                .cutter
+                .load(mode, radial_depth, path_speed, self.spindle_speed);
+            let force = [
+                cut.along * seen.tangent[0] + cut.towards_stock * right[0],
+                cut.along * seen.tangent[1] + cut.towards_stock * right[1],
+            ];
+            (cut, force)
+        };
+        (self.cut, self.cut_force) = cut_at(velocity);
+        let step = CUT_VELOCITY_STEP;
+        for axis in 0..2 {
+            let mut nudged = velocity;
+            nudged[axis] += step;
+            let (_, force) = cut_at(nudged);
+            for ((slope, nudged_force), force) in
+                self.cut_damping.iter_mut().zip(force).zip(self.cut_force)
+            {
+                slope[axis] = (nudged_force - force) / step;
+            }
+        }
+    }
+
     fn currents(&self) -> [f64; 4] {
         [
             self.drives[0].current(),
@@ -341,37 +376,7 @@ impl Machine for Arm {
         } else {
             0.0
         };
-        // Counter-clockwise with the stock on the right of travel: up milling.
-        let mode = if self.spindle_speed >= 0.0 {
-            MillingMode::Up
-        } else {
-            MillingMode::Down
-        };
-        let cut_at = |velocity: [f64; 2]| -> (CutLoad, [f64; 2]) {
-            let right = [seen.tangent[1], -seen.tangent[0]];
-            let path_speed = velocity[0] * seen.tangent[0] + velocity[1] * seen.tangent[1];
-            let cut = self
-                .cutter
-                .load(mode, radial_depth, path_speed, self.spindle_speed);
-            let force = [
-                cut.along * seen.tangent[0] + cut.towards_stock * right[0],
-                cut.along * seen.tangent[1] + cut.towards_stock * right[1],
-            ];
-            (cut, force)
-        };
-        (self.cut, self.cut_force) = cut_at(velocity);
-        // The cut is a damper of thousands of N·s/m on the tool: hand the integrator its slope.
-        let step = CUT_VELOCITY_STEP;
-        for axis in 0..2 {
-            let mut nudged = velocity;
-            nudged[axis] += step;
-            let (_, force) = cut_at(nudged);
-            for ((slope, nudged_force), force) in
-                self.cut_damping.iter_mut().zip(force).zip(self.cut_force)
-            {
-                slope[axis] = (nudged_force - force) / step;
-            }
-        }
+        self.update_cut(&seen, radial_depth, velocity);
         let path_speed = velocity[0] * seen.tangent[0] + velocity[1] * seen.tangent[1];
         let currents = self.currents();
         signals.copy_from_slice(&[

@@ -20,7 +20,7 @@
 mod motor;
 
 use super::{link, process_params, Machine, MachineError};
-use crate::mechanism::{Mechanism, Pose2};
+use crate::mechanism::{wrap_angle, Mechanism, Pose2};
 use crate::physics::{Load, MechanismState, NO_DAMPING};
 use controllers::{Actuator, EffortKind};
 use models::platform_path::{Path, PathSpec};
@@ -229,16 +229,6 @@ impl Platform {
     }
 }
 
-/// Wraps an angle to (−π, π].
-fn wrap(angle: f64) -> f64 {
-    let wrapped = angle.rem_euclid(std::f64::consts::TAU);
-    if wrapped > std::f64::consts::PI {
-        wrapped - std::f64::consts::TAU
-    } else {
-        wrapped
-    }
-}
-
 impl Machine for Platform {
     /// Only the wheel encoders are sensors: the planar base stands for the floor (the true pose,
     /// recorded as the "direct measurement") and the caster's swivel carries no encoder.
@@ -316,7 +306,7 @@ impl Machine for Platform {
             desired.point.heading,
         ]);
 
-        let heading_error = wrap(chassis.angle - self.desired_heading);
+        let heading_error = wrap_angle(chassis.angle - self.desired_heading);
         let (nearest, path_error) = self.path.nearest(h, self.nearest_s);
         self.nearest_s = nearest;
         diagnostics[..6].copy_from_slice(&[

@@ -17,7 +17,7 @@
 //! converts URDF signs at the door).
 
 use super::dense::{ldl_backward, ldl_factor, ldl_forward, ldl_solve};
-use crate::mechanism::{JointMotion, Mechanism, Pose2};
+use crate::mechanism::{wrap_angle, JointMotion, Mechanism, Pose2};
 
 /// Pivots below this share of the largest make a loop constraint count as redundant.
 const DEPENDENT_PIVOT: f64 = 1e-12;
@@ -566,7 +566,7 @@ fn loop_rows(
                 (f1.cos * f2.sin - f1.sin * f2.cos).atan2(f1.cos * f2.cos + f1.sin * f2.sin);
             let phi = [
                 normal[0] * d[0] + normal[1] * d[1],
-                wrap(relative + geometry.frame_angle),
+                wrap_angle(relative + geometry.frame_angle),
             ];
             if let Some((v, motion)) = velocity {
                 let w1 = motion.omega[l1];
@@ -619,14 +619,4 @@ fn sub(a: [f64; 2], b: [f64; 2]) -> [f64; 2] {
 
 pub(super) fn dot(a: &[f64], b: &[f64]) -> f64 {
     a.iter().zip(b).map(|(x, y)| x * y).sum()
-}
-
-/// An angle difference brought into (−π, π].
-fn wrap(angle: f64) -> f64 {
-    let wrapped = angle.rem_euclid(std::f64::consts::TAU);
-    if wrapped > std::f64::consts::PI {
-        wrapped - std::f64::consts::TAU
-    } else {
-        wrapped
-    }
 }

@@ -23,30 +23,9 @@ pub(super) struct RapierModel {
 impl RapierModel {
     pub fn new(mechanism: &Mechanism) -> Self {
         let mut bodies = RigidBodySet::new();
-        let mut multibodies = MultibodyJointSet::new();
         let poses = mechanism.zero_pose();
-        let handles: Vec<RigidBodyHandle> = mechanism
-            .links
-            .iter()
-            .zip(&poses)
-            .map(|(link, pose)| {
-                let builder = match link.inertial {
-                    None => RigidBodyBuilder::fixed(),
-                    Some(inertial) => {
-                        RigidBodyBuilder::dynamic().additional_mass_properties(MassProperties::new(
-                            Vector::new(inertial.centre_of_mass[0], inertial.centre_of_mass[1]),
-                            inertial.mass,
-                            inertial.izz,
-                        ))
-                    }
-                };
-                let mut body = builder.pose(to_rapier(pose)).build();
-                // Rapier's pipeline would compute these on its first step; the twin never runs
-                // it, and the body Jacobians need the centre of mass.
-                body.recompute_mass_properties_from_colliders(&ColliderSet::new());
-                bodies.insert(body)
-            })
-            .collect();
+        let handles = insert_links(mechanism, &poses, &mut bodies);
+        let mut multibodies = MultibodyJointSet::new();
         // Each branch leaving the ground gets its own fixed anchor, so each becomes its own
         // multibody.
         for joint in &mechanism.joints {
@@ -170,6 +149,37 @@ impl RapierModel {
         }
         diagonal
     }
+}
+
+/// One rigid body per link at the URDF's pose: fixed for the ground, dynamic with the URDF's mass
+/// properties for the rest.
+fn insert_links(
+    mechanism: &Mechanism,
+    poses: &[Pose2],
+    bodies: &mut RigidBodySet,
+) -> Vec<RigidBodyHandle> {
+    mechanism
+        .links
+        .iter()
+        .zip(poses)
+        .map(|(link, pose)| {
+            let builder = match link.inertial {
+                None => RigidBodyBuilder::fixed(),
+                Some(inertial) => {
+                    RigidBodyBuilder::dynamic().additional_mass_properties(MassProperties::new(
+                        Vector::new(inertial.centre_of_mass[0], inertial.centre_of_mass[1]),
+                        inertial.mass,
+                        inertial.izz,
+                    ))
+                }
+            };
+            let mut body = builder.pose(to_rapier(pose)).build();
+            // Rapier's pipeline would compute these on its first step; the twin never runs
+            // it, and the body Jacobians need the centre of mass.
+            body.recompute_mass_properties_from_colliders(&ColliderSet::new());
+            bodies.insert(body)
+        })
+        .collect()
 }
 
 fn to_rapier(pose: &Pose2) -> Pose {

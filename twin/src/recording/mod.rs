@@ -33,7 +33,7 @@ use rerun::{
     SerializedComponentBatch, SerializedComponentColumn, TimeColumn,
 };
 
-use crate::mechanism::{Outline, Pose2, Shape};
+use crate::mechanism::{wrap_angle, Outline, Pose2, Shape};
 
 const MECHANISM: &str = "mechanism";
 const SIGNALS: &str = "signals";
@@ -501,21 +501,6 @@ fn pose_columns(
         SerializedComponentBatch::new(rotation, Transform3D::descriptor_rotation_axis_angle())
             .partitioned(unit)?,
     ])
-}
-
-/// The angle in (-π, π], keeping f32 precision over many turns.
-fn wrap_angle(angle: f64) -> f64 {
-    use std::f64::consts::{PI, TAU};
-    if angle.is_finite() && !(-PI < angle && angle <= PI) {
-        let wrapped = angle.rem_euclid(TAU);
-        if wrapped > PI {
-            wrapped - TAU
-        } else {
-            wrapped
-        }
-    } else {
-        angle
-    }
 }
 
 /// The link's shapes as closed line strips in the link frame (a circle also gets a radius, so that
