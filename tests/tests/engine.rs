@@ -186,7 +186,7 @@ fn pendulum_urdf(mass: f64, length: f64, izz: f64, amplitude: f64) -> String {
     )
 }
 
-/// Times at which `velocity` crosses zero going `downward` (linear interpolation in a step).
+/// Times at which a sampled velocity crosses zero from above (linear interpolation in a step).
 fn zero_crossings(samples: &[(f64, f64)]) -> Vec<f64> {
     samples
         .windows(2)

@@ -108,10 +108,13 @@ impl Kinematics {
         &self.jw[link * self.n..(link + 1) * self.n]
     }
 
-    /// Velocity of the centre of mass and angular velocity of `link`, [vx, vy, ω], as J·q̇.
-    pub fn com_velocity(&self, link: usize, v: &[f64]) -> [f64; 3] {
+    /// Velocity of a world point fixed on `link` and the link's angular velocity, [vx, vy, ω]:
+    /// the centre of mass's J·q̇ plus ω × (point − com).
+    pub fn point_velocity(&self, link: usize, point: [f64; 2], v: &[f64]) -> [f64; 3] {
         let (jx, jy) = self.jv(link);
-        [dot(jx, v), dot(jy, v), dot(self.jw(link), v)]
+        let omega = dot(self.jw(link), v);
+        let [rx, ry] = sub(point, self.com[link]);
+        [dot(jx, v) - omega * ry, dot(jy, v) + omega * rx, omega]
     }
 }
 
@@ -409,7 +412,7 @@ impl Dynamics {
         for load in inputs.loads {
             let point = kin.frames[load.link].apply(load.local_point);
             let dv = sub(
-                self.motion.point_velocity(kin, load.link, point, v),
+                velocity_of(kin.point_velocity(load.link, point, v)),
                 load.start_velocity,
             );
             let [[cxx, cxy], [cyx, cyy]] = load.damping;
@@ -513,20 +516,6 @@ impl LinkMotion {
             self.origin_vp[link][1] - w2 * r[1],
         ]
     }
-
-    /// Velocity of a world point fixed on `link`.
-    fn point_velocity(
-        &self,
-        kin: &Kinematics,
-        link: usize,
-        point: [f64; 2],
-        v: &[f64],
-    ) -> [f64; 2] {
-        let (jx, jy) = kin.jv(link);
-        let w = self.omega[link];
-        let [rx, ry] = sub(point, kin.com[link]);
-        [dot(jx, v) - w * ry, dot(jy, v) + w * rx]
-    }
 }
 
 /// The two rows of one loop joint: φ, its Jacobian rows (into `row_a`, `row_b`, zeroed) and,
@@ -572,8 +561,8 @@ fn loop_rows(
                 let w1 = motion.omega[l1];
                 let a = sub(motion.point_vp(kin, l2, p2), motion.point_vp(kin, l1, p1));
                 let d_rate = sub(
-                    motion.point_velocity(kin, l2, p2, v),
-                    motion.point_velocity(kin, l1, p1, v),
+                    velocity_of(kin.point_velocity(l2, p2, v)),
+                    velocity_of(kin.point_velocity(l1, p1, v)),
                 );
                 gamma[0] = normal[0] * a[0]
                     + normal[1] * a[1]
@@ -611,6 +600,10 @@ fn point_rows(
         row[g] +=
             scale * (direction[0] * (jx[g] - ry * jw[g]) + direction[1] * (jy[g] + rx * jw[g]));
     }
+}
+
+fn velocity_of([vx, vy, _]: [f64; 3]) -> [f64; 2] {
+    [vx, vy]
 }
 
 fn sub(a: [f64; 2], b: [f64; 2]) -> [f64; 2] {

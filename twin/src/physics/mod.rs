@@ -134,18 +134,13 @@ impl Physics {
         }
         self.loads.clear();
         self.loads.extend(loads.iter().map(|load| {
-            let frame = self.kin.frames[load.link];
-            let [vx, vy, omega] = self.kin.com_velocity(load.link, &self.v);
-            let [cx, cy] = self.kin.com[load.link];
+            let [vx, vy, _] = self.kin.point_velocity(load.link, load.point, &self.v);
             HeldLoad {
                 link: load.link,
                 force: load.force,
-                local_point: frame.local(load.point),
+                local_point: self.kin.frames[load.link].local(load.point),
                 damping: load.damping,
-                start_velocity: [
-                    vx - omega * (load.point[1] - cy),
-                    vy + omega * (load.point[0] - cx),
-                ],
+                start_velocity: [vx, vy],
             }
         }));
         let h = self.settings.dt / self.settings.substeps as f64;
@@ -297,14 +292,9 @@ impl Physics {
         state.link_velocities.clear();
         state.link_angular_velocities.clear();
         for (l, frame) in self.kin.frames.iter().enumerate() {
-            let [vx, vy, omega] = self.kin.com_velocity(l, &self.v);
-            let [cx, cy] = self.kin.com[l];
-            let pose = frame.pose();
-            // The frame origin moves as the centre of mass plus ω × (origin − com).
-            state.link_poses.push(pose);
-            state
-                .link_velocities
-                .push([vx - omega * (pose.y - cy), vy + omega * (pose.x - cx)]);
+            let [vx, vy, omega] = self.kin.point_velocity(l, frame.origin, &self.v);
+            state.link_poses.push(frame.pose());
+            state.link_velocities.push([vx, vy]);
             state.link_angular_velocities.push(omega);
         }
         state.loop_gaps.clear();
