@@ -78,11 +78,66 @@ pub fn parse_params<P: DeserializeOwned>(
     })
 }
 
-/// Deserialises a table, with a one-line message that quotes the offending `key = value` line.
+/// Deserialises a table, with a one-line message that names the offending entry. Stricter than
+/// TOML itself: every number must be finite (TOML allows `inf` and `nan`, no physical parameter
+/// does), and an array must have exactly the length its field takes (the TOML deserialiser would
+/// silently drop extra elements of a fixed-size array).
 pub fn from_table<P: DeserializeOwned>(table: &toml::Table) -> Result<P, String> {
-    // Through text, so that the error carries a span naming the entry.
-    let text = toml::to_string(table).map_err(|e| e.to_string())?;
-    toml::from_str(&text).map_err(|e| describe_toml_error(&text, &e))
+    check_finite(table, &mut Vec::new())?;
+    // Through the value first: it checks array lengths and gives the key path of any error.
+    match serde_path_to_error::deserialize(toml::Value::Table(table.clone())) {
+        Ok(value) => Ok(value),
+        Err(error) => {
+            // Through text for a message that quotes the `key = value` line, where TOML has one.
+            let text = toml::to_string(table).map_err(|e| e.to_string())?;
+            match toml::from_str::<P>(&text) {
+                Err(e) => Err(describe_toml_error(&text, &e)),
+                Ok(_) => Err(describe_path_error(&error)),
+            }
+        }
+    }
+}
+
+/// `key.path: message`, with serde's wording for a too-long array made plain.
+fn describe_path_error(error: &serde_path_to_error::Error<toml::de::Error>) -> String {
+    let message = error.inner().message().trim().replace('\n', " ");
+    let message = match message.strip_prefix("invalid length ") {
+        Some(rest) if rest.contains("fewer elements in array") => {
+            let found = rest.split(',').next().unwrap_or(rest);
+            format!("has {found} elements, more than it takes")
+        }
+        _ => message,
+    };
+    format!("`{}`: {message}", error.path())
+}
+
+/// Rejects NaN and infinities anywhere in the table, naming the key.
+fn check_finite(table: &toml::Table, path: &mut Vec<String>) -> Result<(), String> {
+    for (key, value) in table {
+        path.push(key.clone());
+        check_finite_value(value, path)?;
+        path.pop();
+    }
+    Ok(())
+}
+
+fn check_finite_value(value: &toml::Value, path: &mut Vec<String>) -> Result<(), String> {
+    match value {
+        toml::Value::Float(x) if !x.is_finite() => Err(format!(
+            "`{}` = {x}: must be a finite number",
+            path.join(".")
+        )),
+        toml::Value::Table(table) => check_finite(table, path),
+        toml::Value::Array(items) => {
+            for (index, item) in items.iter().enumerate() {
+                path.push(index.to_string());
+                check_finite_value(item, path)?;
+                path.pop();
+            }
+            Ok(())
+        }
+        _ => Ok(()),
+    }
 }
 
 /// A TOML error on one line: where it is (`line N: <that line>`) and what is wrong.
@@ -92,6 +147,11 @@ pub fn describe_toml_error(text: &str, error: &toml::de::Error) -> String {
         Some(span) if span.start < text.len() => {
             let line_number = text[..span.start].matches('\n').count() + 1;
             let line = text.lines().nth(line_number - 1).unwrap_or("").trim();
+            // A long line (a generated file, a hostile input) is quoted by its start only.
+            let line = match line.char_indices().nth(80) {
+                Some((end, _)) => format!("{}…", &line[..end]),
+                None => line.to_string(),
+            };
             format!("line {line_number} (`{line}`): {message}")
         }
         _ => message,

@@ -179,7 +179,7 @@ fn loop_joint_defects() {
     );
     assert_names(
         &load_str(&bad_numbers, "pendulum.urdf").unwrap_err(),
-        &["loop_joint \"tie\" <link1>", "not three numbers"],
+        &["loop_joint \"tie\" <link1>", "not three finite numbers"],
     );
 }
 

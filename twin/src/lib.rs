@@ -7,6 +7,7 @@ pub mod analysis;
 pub mod energy;
 pub mod machines;
 pub mod mechanism;
+pub mod output;
 pub mod physics;
 pub mod recording;
 pub mod reproduce;
@@ -16,5 +17,5 @@ pub mod sensors;
 pub mod summary;
 pub mod urdf;
 
-pub use run::{Divergence, RunSummary, Twin, TwinError};
+pub use run::{Divergence, Interruption, RunSummary, StopFlag, Twin, TwinError};
 pub use scenario::{load as load_scenario, LoadedScenario, Overrides};

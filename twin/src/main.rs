@@ -6,13 +6,21 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 use twin::recording::LiveViewer;
 use twin::scenario::{self, Overrides};
-use twin::{reproduce, summary, Twin};
+use twin::output::{same_file, OutputFile};
+use twin::{reproduce, summary, StopFlag, Twin};
+
+/// Exit codes, as documented in `--help` and the README.
+const EXIT_ERROR: u8 = 1;
+const EXIT_USAGE: u8 = 2;
+const EXIT_DIVERGED: u8 = 3;
 
 #[derive(Parser)]
 #[command(
     name = "twin",
     version,
-    about = "Multibody digital twin of machining mechatronics"
+    about = "Multibody digital twin of machining mechatronics",
+    after_help = "Exit codes: 0 ok, 1 error, 2 usage error, 3 the run diverged, \
+                  130/143 interrupted by SIGINT/SIGTERM (recording and summary finished)."
 )]
 struct Cli {
     #[command(subcommand)]
@@ -53,7 +61,7 @@ struct RunArgs {
     #[arg(long = "set", value_name = "KEY=VALUE")]
     set: Vec<String>,
     /// Simulated time, s.
-    #[arg(long, allow_negative_numbers = true)]
+    #[arg(long, allow_hyphen_values = true)]
     duration: Option<f64>,
     /// Recording to write (default: <scenario>.rrd in the current folder).
     #[arg(long)]
@@ -75,12 +83,39 @@ struct BenchArgs {
     /// Built-in scenario names or scenario .toml files; none: every built-in scenario.
     scenarios: Vec<String>,
     /// Simulated time per measurement, s.
-    #[arg(long, default_value_t = 10.0)]
+    #[arg(long, default_value_t = 10.0, allow_hyphen_values = true)]
     duration: f64,
 }
 
+/// Why the command failed: the exit code and a one-line message.
+struct Failure {
+    code: u8,
+    message: String,
+}
+
+impl Failure {
+    fn usage(message: impl Into<String>) -> Self {
+        Self {
+            code: EXIT_USAGE,
+            message: message.into(),
+        }
+    }
+}
+
+impl<E: std::fmt::Display> From<E> for Failure {
+    fn from(error: E) -> Self {
+        Self {
+            code: EXIT_ERROR,
+            message: error.to_string(),
+        }
+    }
+}
+
 fn main() -> ExitCode {
-    let cli = Cli::parse();
+    let cli = match Cli::try_parse() {
+        Ok(cli) => cli,
+        Err(error) => return usage_error(&error),
+    };
     let registry = Registry::builtin();
     let outcome = match cli.command {
         Command::List => {
@@ -95,12 +130,29 @@ fn main() -> ExitCode {
                 print!("{summary}");
                 ExitCode::SUCCESS
             })
-            .map_err(|e| e.to_string()),
+            .map_err(Failure::from),
     };
-    outcome.unwrap_or_else(|message| {
-        eprintln!("error: {message}");
-        ExitCode::from(1)
+    outcome.unwrap_or_else(|failure| {
+        eprintln!("error: {}", failure.message);
+        ExitCode::from(failure.code)
     })
+}
+
+/// Help and version go to stdout (exit 0); a usage error is one line and a hint (exit 2).
+fn usage_error(error: &clap::Error) -> ExitCode {
+    use clap::error::ErrorKind;
+    if matches!(
+        error.kind(),
+        ErrorKind::DisplayHelp | ErrorKind::DisplayVersion
+    ) {
+        print!("{error}");
+        return ExitCode::SUCCESS;
+    }
+    let rendered = error.render().to_string();
+    let first = rendered.lines().next().unwrap_or("usage error");
+    eprintln!("{first}");
+    eprintln!("hint: twin --help, or twin <command> --help");
+    ExitCode::from(EXIT_USAGE)
 }
 
 fn list(registry: &Registry) {
@@ -127,59 +179,71 @@ fn list(registry: &Registry) {
     }
 }
 
-fn run(args: RunArgs, registry: &Registry) -> Result<ExitCode, String> {
+fn run(args: RunArgs, registry: &Registry) -> Result<ExitCode, Failure> {
     let overrides = Overrides {
         controller: args.controller,
         duration: args.duration,
         set: args.set,
     };
-    let loaded = scenario::load(&args.scenario, &overrides).map_err(|e| e.to_string())?;
+    let loaded = scenario::load(&args.scenario, &overrides)?;
     let out = args
         .out
         .unwrap_or_else(|| PathBuf::from(format!("{}.rrd", loaded.scenario.name)));
-    if let Some(path) = &args.summary {
-        check_writable(path)?;
+    if args.summary.as_deref().is_some_and(|s| same_file(s, &out)) {
+        return Err(Failure::usage(format!(
+            "--summary {} is the recording's path too; give them different files",
+            out.display()
+        )));
     }
-    let mut twin = Twin::new(loaded, registry).map_err(|e| e.to_string())?;
+    // Created now, so that an unwritable summary path fails before the run, not after it.
+    let summary_file = args.summary.as_deref().map(OutputFile::create).transpose()?;
+    let mut twin = Twin::new(loaded, registry)?.with_stop_flag(stop_on_signals()?);
     if let Some(url) = args.connect {
         twin = twin.with_live_viewer(LiveViewer::Connect(url));
     } else if args.spawn {
         twin = twin.with_live_viewer(LiveViewer::Spawn);
     }
-    let result = twin.run(Some(&out)).map_err(|e| e.to_string())?;
+    let result = twin.run(Some(&out))?;
     print!("{}", summary::to_table(&result));
     println!("recording: {}", out.display());
-    if let Some(path) = &args.summary {
-        summary::write_json(&result, path)
-            .map_err(|e| format!("cannot write summary {}: {e}", path.display()))?;
+    if let Some(file) = summary_file {
+        summary::write_json(&result, file)?;
     }
-    Ok(match &result.failure {
-        None => ExitCode::SUCCESS,
-        Some(failure) => {
+    Ok(match (&result.failure, &result.interrupted) {
+        (Some(failure), _) => {
             eprintln!("error: {failure}");
-            ExitCode::from(2)
+            ExitCode::from(EXIT_DIVERGED)
         }
+        (None, Some(interrupted)) => {
+            eprintln!("{interrupted}: recording and summary are complete up to there");
+            ExitCode::from(128 + interrupted.signal.min(127) as u8)
+        }
+        (None, None) => ExitCode::SUCCESS,
     })
 }
 
-/// Fails early, before a long run, when the summary's folder cannot take the file.
-fn check_writable(path: &std::path::Path) -> Result<(), String> {
-    let folder = match path.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p,
-        _ => std::path::Path::new("."),
-    };
-    if folder.is_dir() {
+/// SIGINT and SIGTERM ask the run to stop (it finishes its files); a second one ends the
+/// process at once. SIGXFSZ is caught too, so that a file-size limit fails a write with its
+/// error instead of killing the process.
+fn stop_on_signals() -> Result<StopFlag, Failure> {
+    use signal_hook::consts::{SIGINT, SIGTERM, SIGXFSZ};
+    use signal_hook::flag;
+    let stop = StopFlag::default();
+    let requested = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
+    let install = || -> std::io::Result<()> {
+        for signal in [SIGINT, SIGTERM] {
+            flag::register_conditional_shutdown(signal, 128 + signal, requested.clone())?;
+            flag::register(signal, requested.clone())?;
+            flag::register_usize(signal, stop.clone(), signal as usize)?;
+        }
+        flag::register(SIGXFSZ, std::sync::Arc::new(Default::default()))?;
         Ok(())
-    } else {
-        Err(format!(
-            "cannot write summary {}: folder {} does not exist",
-            path.display(),
-            folder.display()
-        ))
-    }
+    };
+    install().map_err(|e| format!("cannot install the signal handlers: {e}"))?;
+    Ok(stop)
 }
 
-fn bench(args: BenchArgs, registry: &Registry) -> Result<ExitCode, String> {
+fn bench(args: BenchArgs, registry: &Registry) -> Result<ExitCode, Failure> {
     let overrides = Overrides {
         duration: Some(args.duration),
         ..Default::default()
@@ -222,9 +286,8 @@ fn bench(args: BenchArgs, registry: &Registry) -> Result<ExitCode, String> {
     Ok(ExitCode::SUCCESS)
 }
 
-fn reproduce(args: ReproduceArgs, registry: &Registry) -> Result<ExitCode, String> {
-    let report =
-        reproduce::reproduce(&args.paper, &args.out_dir, registry).map_err(|e| e.to_string())?;
+fn reproduce(args: ReproduceArgs, registry: &Registry) -> Result<ExitCode, Failure> {
+    let report = reproduce::reproduce(&args.paper, &args.out_dir, registry)?;
     print!("{}", reproduce::to_table(&report));
     println!("recordings and report.json: {}", args.out_dir.display());
     Ok(ExitCode::SUCCESS)

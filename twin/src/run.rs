@@ -61,6 +61,34 @@ impl std::fmt::Display for Divergence {
     }
 }
 
+/// A run stopped on request (SIGINT/SIGTERM in the CLI) before its end.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Interruption {
+    /// The signal number that asked for the stop (2: SIGINT, 15: SIGTERM).
+    pub signal: usize,
+    /// The last step simulated and recorded, and its time, s.
+    pub step: usize,
+    pub time: f64,
+}
+
+impl std::fmt::Display for Interruption {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let name = match self.signal {
+            2 => "SIGINT".to_string(),
+            15 => "SIGTERM".to_string(),
+            other => format!("signal {other}"),
+        };
+        write!(
+            f,
+            "interrupted by {name} at step {} (t = {:.6} s)",
+            self.step, self.time
+        )
+    }
+}
+
+/// A flag a run polls once per step: 0 goes on, any other value (a signal number) stops it.
+pub type StopFlag = std::sync::Arc<std::sync::atomic::AtomicUsize>;
+
 /// What a run reports.
 #[derive(Debug, Clone, PartialEq)]
 pub struct RunSummary {
@@ -72,6 +100,8 @@ pub struct RunSummary {
     pub steps_per_s: f64,
     pub metrics: Vec<(String, f64)>,
     pub failure: Option<Divergence>,
+    /// Set when the run was stopped on request before its end.
+    pub interrupted: Option<Interruption>,
     /// FNV-1a digest of every recorded sample's bits: equal digests, identical series.
     pub series_digest: u64,
 }
@@ -102,6 +132,8 @@ pub struct Twin {
     live: Option<LiveViewer>,
     /// Movable joints the controller measures (the machine may hide some, e.g. a planar base).
     sensed: Vec<usize>,
+    /// Polled every step; see [`Twin::with_stop_flag`].
+    stop: Option<StopFlag>,
 }
 
 impl Twin {
@@ -193,12 +225,20 @@ impl Twin {
             movable,
             sensed,
             live: None,
+            stop: None,
         })
     }
 
     /// Streams the recorded run to a live viewer too (`twin run --connect URL | --spawn`).
     pub fn with_live_viewer(mut self, live: LiveViewer) -> Self {
         self.live = Some(live);
+        self
+    }
+
+    /// Stops the run at the next step once `flag` holds a non-zero value (the CLI stores the
+    /// signal number there): the recording is finished and the summary says where it stopped.
+    pub fn with_stop_flag(mut self, flag: StopFlag) -> Self {
+        self.stop = Some(flag);
         self
     }
 
@@ -290,6 +330,7 @@ impl Twin {
         let mut noise = Noise::new(scenario.seed);
         let mut stats = RunStats::new(actuator_count);
         let mut failure = None;
+        let mut interrupted = None;
         let mut digest = Digest::default();
 
         let started = Instant::now();
@@ -324,6 +365,9 @@ impl Twin {
             }
 
             failure = self.check_health(step, time, &state, &true_signals);
+            if let Some(signal) = self.stop_requested() {
+                interrupted.get_or_insert(Interruption { signal, step, time });
+            }
             if step % control_every == 0 && failure.is_none() {
                 for (i, sensor) in self.sensors.iter_mut().enumerate() {
                     measured[i] = match sensor {
@@ -381,13 +425,17 @@ impl Twin {
             self.machine.drive(dt, &limited, &mut applied);
             stats.observe(&applied, &saturated, &state, energy[0] - energy_start);
 
-            let sampled = step % scenario.recording.every == 0 || failure.is_some();
+            let stopped = failure.is_some() || interrupted.is_some();
+            let sampled = step % scenario.recording.every == 0 || stopped;
             if let Some(recorder) = recorder.as_mut() {
                 for (level, text) in events.drain(..) {
                     recorder.event(step, time, level, &text);
                 }
                 if let Some(failure) = &failure {
                     recorder.event(step, time, EventLevel::Error, &failure.to_string());
+                }
+                if let Some(interrupted) = &interrupted {
+                    recorder.event(step, time, EventLevel::Warning, &interrupted.to_string());
                 }
                 if sampled {
                     values.clear();
@@ -415,7 +463,7 @@ impl Twin {
                 digest.add_all(&internals);
                 digest.add_all(&diagnostics);
             }
-            if failure.is_some() || step == steps {
+            if stopped || step == steps {
                 break;
             }
 
@@ -452,8 +500,14 @@ impl Twin {
             steps_per_s: step as f64 / wall_s.max(1e-12),
             metrics,
             failure,
+            interrupted,
             series_digest: digest.0,
         })
+    }
+
+    fn stop_requested(&self) -> Option<usize> {
+        let signal = self.stop.as_ref()?.load(std::sync::atomic::Ordering::Relaxed);
+        (signal != 0).then_some(signal)
     }
 
     fn check_health(

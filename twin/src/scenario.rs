@@ -72,6 +72,20 @@ pub enum ScenarioError {
     BadSet { assignment: String, reason: String },
 }
 
+/// Largest scenario or URDF file read, bytes: far above any real one, and it keeps `/dev/zero`
+/// or a mistaken multi-gigabyte path from eating the memory.
+pub const MAX_INPUT_BYTES: u64 = 8 << 20;
+/// Largest RK4 substep count per physics step.
+pub const MAX_SUBSTEPS: usize = 64;
+/// Default cap on physics steps per run (`max_steps`): about a minute of the fastest machine,
+/// and a recording of a few GB at `recording.every = 1`.
+pub const DEFAULT_MAX_STEPS: usize = 10_000_000;
+/// Largest `--set` key: characters and dotted segments (no scenario key is deeper than 4).
+const MAX_SET_KEY_CHARS: usize = 256;
+const MAX_SET_KEY_SEGMENTS: usize = 8;
+/// Longest scenario name (it names the default recording file).
+const MAX_NAME_CHARS: usize = 100;
+
 #[derive(Debug, Clone, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct Scenario {
@@ -93,6 +107,9 @@ pub struct Scenario {
     /// RK4 substeps per physics step (efforts and process loads are held over the step).
     #[serde(default = "default_substeps")]
     pub substeps: usize,
+    /// Refuse runs of more physics steps than this (duration / dt); raise it for a long run.
+    #[serde(default = "default_max_steps")]
+    pub max_steps: usize,
     /// Seed of the sensor noise.
     #[serde(default)]
     pub seed: u64,
@@ -159,6 +176,10 @@ fn default_substeps() -> usize {
     1
 }
 
+fn default_max_steps() -> usize {
+    DEFAULT_MAX_STEPS
+}
+
 /// A scenario ready to run: parsed, checked, with its text (for provenance) and its URDF text.
 #[derive(Debug, Clone, PartialEq)]
 pub struct LoadedScenario {
@@ -187,6 +208,34 @@ impl Scenario {
     }
 
     fn validate(&self) -> Result<(), String> {
+        check_name(&self.name)?;
+        self.validate_timing()?;
+        if self.recording.every == 0 {
+            return Err("recording.every must be ≥ 1".into());
+        }
+        if (self.health.max_joint_speed.is_nan() || self.health.max_joint_speed <= 0.0)
+            || (self.health.max_loop_gap.is_nan() || self.health.max_loop_gap <= 0.0)
+        {
+            return Err("health limits must be > 0".into());
+        }
+        for (signal, spec) in &self.sensors {
+            spec.validate()
+                .map_err(|reason| format!("sensors.\"{signal}\": {reason}"))?;
+            if spec.delay > self.duration {
+                return Err(format!(
+                    "sensors.\"{signal}\": delay ({} s) must not exceed the run's duration ({} s)",
+                    spec.delay, self.duration
+                ));
+            }
+        }
+        if let Some(reference) = &self.reference {
+            reference.validate()?;
+        }
+        Ok(())
+    }
+
+    /// dt, duration, control period, substeps and the step cap.
+    fn validate_timing(&self) -> Result<(), String> {
         if !(self.dt.is_finite() && self.dt > 0.0) {
             return Err(format!("dt must be > 0, got {}", self.dt));
         }
@@ -195,7 +244,7 @@ impl Scenario {
         }
         let period = self.control_period();
         let ratio = period / self.dt;
-        if (period.is_nan() || period <= 0.0)
+        if !(period.is_finite() && period > 0.0)
             || (ratio - ratio.round()).abs() > 1e-9
             || ratio.round() < 1.0
         {
@@ -204,29 +253,44 @@ impl Scenario {
                 self.dt
             ));
         }
-        if self.recording.every == 0 {
-            return Err("recording.every must be ≥ 1".into());
+        if period > self.duration {
+            return Err(format!(
+                "control_period ({period} s) must not exceed the duration ({} s)",
+                self.duration
+            ));
         }
-        if self.substeps == 0 {
-            return Err("substeps must be ≥ 1".into());
+        if !(1..=MAX_SUBSTEPS).contains(&self.substeps) {
+            return Err(format!(
+                "substeps must be between 1 and {MAX_SUBSTEPS}, got {}",
+                self.substeps
+            ));
         }
-        if (self.health.max_joint_speed.is_nan() || self.health.max_joint_speed <= 0.0)
-            || (self.health.max_loop_gap.is_nan() || self.health.max_loop_gap <= 0.0)
-        {
-            return Err("health limits must be > 0".into());
-        }
-        if self.gravity.iter().any(|g| !g.is_finite()) {
-            return Err("gravity must be finite".into());
-        }
-        for (signal, spec) in &self.sensors {
-            spec.validate()
-                .map_err(|reason| format!("sensors.\"{signal}\": {reason}"))?;
-        }
-        if let Some(reference) = &self.reference {
-            reference.validate()?;
+        let steps = self.duration / self.dt;
+        if steps > self.max_steps as f64 {
+            return Err(format!(
+                "duration / dt = {steps:.3e} steps exceeds max_steps = {}; shorten the run, \
+                 enlarge dt, or raise the cap (max_steps = … in the scenario, --set max_steps=…)",
+                self.max_steps
+            ));
         }
         Ok(())
     }
+}
+
+/// A scenario name names files (`<name>.rrd`): letters, digits, `_`, `-`, `.`, not leading `.`.
+fn check_name(name: &str) -> Result<(), String> {
+    let allowed = |c: char| c.is_ascii_alphanumeric() || matches!(c, '_' | '-' | '.');
+    if name.is_empty()
+        || name.len() > MAX_NAME_CHARS
+        || name.starts_with('.')
+        || !name.chars().all(allowed)
+    {
+        return Err(format!(
+            "name {name:?}: use 1 to {MAX_NAME_CHARS} letters, digits, `_`, `-` or `.`, \
+             not starting with `.` (it names the recording file)"
+        ));
+    }
+    Ok(())
 }
 
 /// Changes the command line makes to a scenario before it is checked.
@@ -246,9 +310,9 @@ pub fn load(name_or_path: &str, overrides: &Overrides) -> Result<LoadedScenario,
         Some((name, text)) => (text.to_string(), format!("built-in scenario {name}"), None),
         None if name_or_path.ends_with(".toml") || Path::new(name_or_path).exists() => {
             let path = Path::new(name_or_path);
-            let text = std::fs::read_to_string(path).map_err(|e| ScenarioError::Read {
+            let text = read_text(path).map_err(|reason| ScenarioError::Read {
                 file: name_or_path.into(),
-                reason: e.to_string(),
+                reason,
             })?;
             (
                 text,
@@ -313,7 +377,7 @@ fn find_urdf(path: &str, folder: Option<&Path>) -> Option<UrdfLookup> {
     if let Some(folder) = folder {
         let candidate: PathBuf = folder.join(path);
         if candidate.exists() {
-            let text = std::fs::read_to_string(&candidate).map_err(|e| e.to_string());
+            let text = read_text(&candidate);
             return Some((text, candidate.display().to_string()));
         }
     }
@@ -321,6 +385,35 @@ fn find_urdf(path: &str, folder: Option<&Path>) -> Option<UrdfLookup> {
         .iter()
         .find(|(name, _)| *name == path)
         .map(|(name, text)| (Ok(text.to_string()), format!("built-in {name}")))
+}
+
+/// Reads a text file of at most [`MAX_INPUT_BYTES`] (a device or huge file is refused, not read
+/// to the end).
+pub fn read_text(path: &Path) -> Result<String, String> {
+    use std::io::Read;
+    let file = std::fs::File::open(path).map_err(|e| e.to_string())?;
+    if file.metadata().is_ok_and(|m| m.is_dir()) {
+        return Err("is a directory".into());
+    }
+    let mut bytes = Vec::new();
+    file.take(MAX_INPUT_BYTES + 1)
+        .read_to_end(&mut bytes)
+        .map_err(|e| e.to_string())?;
+    if bytes.len() as u64 > MAX_INPUT_BYTES {
+        return Err(format!(
+            "larger than {} MiB; not a scenario or URDF file",
+            MAX_INPUT_BYTES >> 20
+        ));
+    }
+    String::from_utf8(bytes).map_err(|_| "not UTF-8 text".into())
+}
+
+/// The first 60 characters of a long argument, for a one-line message.
+fn shortened(text: &str) -> String {
+    match text.char_indices().nth(60) {
+        Some((end, _)) => format!("{}…", &text[..end]),
+        None => text.to_string(),
+    }
 }
 
 /// Splits a dotted key; a quoted segment may hold dots (`sensors."table.position".noise`).
@@ -340,15 +433,25 @@ fn key_path(key: &str) -> Option<Vec<String>> {
 /// Sets a dotted key to a TOML value (a number, bool, string, array; bare words are strings).
 fn apply_override(table: &mut toml::Table, assignment: &str) -> Result<(), ScenarioError> {
     let bad = |reason: &str| ScenarioError::BadSet {
-        assignment: assignment.into(),
+        assignment: shortened(assignment),
         reason: reason.into(),
     };
     let (key, raw) = assignment
         .split_once('=')
         .ok_or_else(|| bad("expected key=value"))?;
+    if key.len() > MAX_SET_KEY_CHARS {
+        return Err(bad(&format!(
+            "key longer than {MAX_SET_KEY_CHARS} characters"
+        )));
+    }
     let path = key_path(key.trim()).ok_or_else(|| bad("unbalanced quotes in the key"))?;
     if path.iter().any(|p| p.is_empty()) {
         return Err(bad("empty key"));
+    }
+    if path.len() > MAX_SET_KEY_SEGMENTS {
+        return Err(bad(&format!(
+            "key deeper than {MAX_SET_KEY_SEGMENTS} levels; no scenario key is"
+        )));
     }
     let value = match format!("v = {raw}").parse::<toml::Table>() {
         Ok(mut parsed) => parsed.remove("v").ok_or_else(|| bad("no value"))?,

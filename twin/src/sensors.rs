@@ -47,7 +47,8 @@ impl Sensor {
         let delay_periods = (spec.delay / control_period).round() as usize;
         Self {
             spec,
-            history: VecDeque::with_capacity(delay_periods + 1),
+            // Grown as readings arrive: a long delay costs memory only once the run reaches it.
+            history: VecDeque::with_capacity(delay_periods.min(4096) + 1),
             delay_periods,
         }
     }

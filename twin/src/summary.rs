@@ -3,11 +3,12 @@
 use crate::run::RunSummary;
 use serde_json::{json, Map, Value};
 use std::fmt::Write as _;
-use std::path::Path;
+use crate::output::{OutputError, OutputFile};
 
 /// The summary as JSON: `scenario`, `controller`, `dt`, `steps`, `wall_s`, `steps_per_s`,
-/// `metrics` (named numbers), `status` (`ok` or `failed`), `failure` (the reason, or null) and
-/// `series_digest` (equal digests: bit-identical recorded series).
+/// `metrics` (named numbers), `status` (`ok`, `failed` or `interrupted`), `failure` (the reason,
+/// or null), `time_reached` (the simulated time of the last step, s) and `series_digest` (equal
+/// digests: bit-identical recorded series).
 pub fn to_json(summary: &RunSummary) -> Value {
     let metrics: Map<String, Value> = summary
         .metrics
@@ -22,27 +23,38 @@ pub fn to_json(summary: &RunSummary) -> Value {
         "wall_s": summary.wall_s,
         "steps_per_s": summary.steps_per_s,
         "metrics": metrics,
-        "status": if summary.failure.is_some() { "failed" } else { "ok" },
-        "failure": summary.failure.as_ref().map(|f| f.to_string()),
+        "status": status(summary),
+        "failure": summary.failure.as_ref().map(|f| f.to_string())
+            .or_else(|| summary.interrupted.as_ref().map(|i| i.to_string())),
+        "time_reached": summary.steps as f64 * summary.dt,
         "series_digest": format!("{:016x}", summary.series_digest),
     })
 }
 
-/// Writes the JSON next to its final path first, then moves it into place.
-pub fn write_json(summary: &RunSummary, path: &Path) -> std::io::Result<()> {
-    let text = serde_json::to_string_pretty(&to_json(summary))?;
-    let mut partial = path.as_os_str().to_owned();
-    partial.push(".part");
-    std::fs::write(&partial, text + "\n")?;
-    std::fs::rename(&partial, path)
+fn status(summary: &RunSummary) -> &'static str {
+    match (&summary.failure, &summary.interrupted) {
+        (Some(_), _) => "failed",
+        (None, Some(_)) => "interrupted",
+        (None, None) => "ok",
+    }
+}
+
+/// Writes the JSON as the whole of `file` (created before the run, so a bad path fails early).
+pub fn write_json(summary: &RunSummary, file: OutputFile) -> Result<(), OutputError> {
+    let text = serde_json::to_string_pretty(&to_json(summary)).map_err(|e| OutputError {
+        path: file.path().to_path_buf(),
+        reason: e.to_string(),
+    })?;
+    file.commit((text + "\n").as_bytes())
 }
 
 /// The summary as an aligned text table.
 pub fn to_table(summary: &RunSummary) -> String {
     let mut out = String::new();
-    let status = match &summary.failure {
-        None => "ok".to_string(),
-        Some(failure) => format!("FAILED: {failure}"),
+    let status = match (&summary.failure, &summary.interrupted) {
+        (Some(failure), _) => format!("FAILED: {failure}"),
+        (None, Some(interrupted)) => format!("INTERRUPTED: {interrupted}"),
+        (None, None) => "ok".to_string(),
     };
     let rows = [
         ("scenario", summary.scenario.clone()),

@@ -50,6 +50,9 @@ use thiserror::Error;
 
 /// How far from planar a value may be before it is an error (m or rad).
 const PLANAR_TOLERANCE: f64 = 1e-9;
+/// Deepest element nesting accepted (a URDF needs 5: robot, link, visual, geometry, box). Checked
+/// before any parser runs, since urdf-rs recurses once per level.
+const MAX_XML_DEPTH: usize = 32;
 /// Largest gap allowed between a loop joint's two frames in the URDF's pose, m (or rad).
 const LOOP_CLOSURE_TOLERANCE: f64 = 1e-6;
 
@@ -71,9 +74,9 @@ pub enum UrdfError {
 /// Loads a URDF file.
 pub fn load_file(path: &Path) -> Result<Mechanism, UrdfError> {
     let file = path.display().to_string();
-    let text = std::fs::read_to_string(path).map_err(|e| UrdfError::Read {
+    let text = crate::scenario::read_text(path).map_err(|reason| UrdfError::Read {
         file: file.clone(),
-        reason: e.to_string(),
+        reason,
     })?;
     load_str(&text, &file)
 }
@@ -84,10 +87,72 @@ pub fn load_str(text: &str, source: &str) -> Result<Mechanism, UrdfError> {
         file: source.to_string(),
         reason,
     };
+    check_depth(text).map_err(malformed)?;
     // Parse the raw XML first: its errors carry line numbers, urdf-rs's do not.
     let document = roxmltree::Document::parse(text).map_err(|e| malformed(e.to_string()))?;
+    let root = document.root_element().tag_name().name();
+    if root != "robot" {
+        return Err(malformed(format!(
+            "the root element is <{root}>; a URDF's is <robot>"
+        )));
+    }
     let robot = urdf_rs::read_from_string(text).map_err(|e| malformed(e.to_string()))?;
     Loader { file: source }.build(&robot, &document)
+}
+
+/// Fails on elements nested deeper than [`MAX_XML_DEPTH`], in one pass over the text that
+/// stops at the first too-deep element (comments, CDATA, declarations and quoted attribute
+/// values are skipped; anything else malformed is left to the XML parser).
+fn check_depth(text: &str) -> Result<(), String> {
+    let bytes = text.as_bytes();
+    let (mut depth, mut i) = (0usize, 0usize);
+    let skip_to = |from: usize, end: &[u8]| -> usize {
+        bytes[from..]
+            .windows(end.len())
+            .position(|w| w == end)
+            .map_or(bytes.len(), |p| from + p + end.len())
+    };
+    while let Some(offset) = bytes[i..].iter().position(|&b| b == b'<') {
+        let start = i + offset;
+        let rest = &bytes[start..];
+        i = if rest.starts_with(b"<!--") {
+            skip_to(start, b"-->")
+        } else if rest.starts_with(b"<![CDATA[") {
+            skip_to(start, b"]]>")
+        } else if rest.starts_with(b"<!") || rest.starts_with(b"<?") {
+            skip_to(start, b">")
+        } else if rest.starts_with(b"</") {
+            depth = depth.saturating_sub(1);
+            skip_to(start, b">")
+        } else {
+            let end = tag_end(bytes, start);
+            if bytes.get(end.wrapping_sub(2)) != Some(&b'/') {
+                depth += 1;
+                if depth > MAX_XML_DEPTH {
+                    let line = text[..start].matches('\n').count() + 1;
+                    return Err(format!(
+                        "line {line}: elements nested more than {MAX_XML_DEPTH} deep"
+                    ));
+                }
+            }
+            end
+        };
+    }
+    Ok(())
+}
+
+/// The index just past the `>` closing the tag that starts at `start`, skipping quoted values.
+fn tag_end(bytes: &[u8], start: usize) -> usize {
+    let mut quote = None;
+    for (k, &b) in bytes.iter().enumerate().skip(start + 1) {
+        match (quote, b) {
+            (None, b'"' | b'\'') => quote = Some(b),
+            (Some(q), _) if b == q => quote = None,
+            (None, b'>') => return k + 1,
+            _ => {}
+        }
+    }
+    bytes.len()
 }
 
 struct Loader<'a> {
@@ -347,17 +412,18 @@ impl Loader<'_> {
     fn planar_pose(&self, pose: &urdf_rs::Pose, element: &str) -> Result<Pose2, UrdfError> {
         let [x, y, z] = pose.xyz.0;
         let [roll, pitch, yaw] = pose.rpy.0;
+        if pose.xyz.0.iter().chain(&pose.rpy.0).any(|v| !v.is_finite()) {
+            return Err(self.invalid(
+                element.to_string(),
+                format!("origin xyz/rpy must be finite numbers, got xyz {x} {y} {z}, rpy {roll} {pitch} {yaw}"),
+            ));
+        }
         for (name, value) in [("z offset", z), ("roll", roll), ("pitch", pitch)] {
             if value.abs() > PLANAR_TOLERANCE {
                 return Err(self.invalid(
                     element.to_string(),
                     format!("not planar: {name} is {value} (must be 0)"),
                 ));
-            }
-        }
-        for value in [x, y, yaw] {
-            if !value.is_finite() {
-                return Err(self.invalid(element.to_string(), "origin is not finite"));
             }
         }
         Ok(Pose2::new(x, y, yaw))
@@ -400,8 +466,10 @@ impl Loader<'_> {
                 ))
             }
         };
+        self.check_limit(limit, &element)?;
         // URDF 1.0 reads a missing or infinite range as lower = upper; treat that as unlimited.
         let limits = limits.filter(|[lower, upper]| lower < upper && lower.is_finite());
+        // effort = 0 (URDF's default) declares an unactuated joint.
         let effort_limit = (motion.is_movable() && limit.effort > 0.0).then_some(limit.effort);
         let (damping, friction) = joint
             .dynamics
@@ -427,6 +495,35 @@ impl Loader<'_> {
             friction,
             spring: None,
         })
+    }
+
+    /// `<limit>`: no NaN anywhere, lower ≤ upper when both are finite, effort and velocity ≥ 0.
+    fn check_limit(&self, limit: &urdf_rs::JointLimit, element: &str) -> Result<(), UrdfError> {
+        let at = format!("{element} <limit>");
+        let numbers = [
+            ("lower", limit.lower),
+            ("upper", limit.upper),
+            ("effort", limit.effort),
+            ("velocity", limit.velocity),
+        ];
+        if let Some((name, value)) = numbers.iter().find(|(_, v)| v.is_nan()) {
+            return Err(self.invalid(at, format!("{name}=\"{value}\" is not a number")));
+        }
+        for (name, value) in &numbers[2..] {
+            if !(value.is_finite() && *value >= 0.0) {
+                return Err(self.invalid(
+                    at,
+                    format!("{name} must be ≥ 0 and finite (0: unactuated), got {value}"),
+                ));
+            }
+        }
+        if limit.lower > limit.upper {
+            return Err(self.invalid(
+                at,
+                format!("lower ({}) is above upper ({})", limit.lower, limit.upper),
+            ));
+        }
+        Ok(())
     }
 
     /// Reads each `<joint>`'s `<spring stiffness reference>` extension into its joint.
@@ -708,18 +805,18 @@ impl Loader<'_> {
         };
         let values: Vec<f64> = text
             .split_whitespace()
-            .map(str::parse)
+            .map(|word| word.parse::<f64>().ok().filter(|v| v.is_finite()).ok_or(()))
             .collect::<Result<_, _>>()
             .map_err(|_| {
                 self.invalid(
                     at.to_string(),
-                    format!("{name}=\"{text}\" is not three numbers"),
+                    format!("{name}=\"{text}\" is not three finite numbers"),
                 )
             })?;
         <[f64; 3]>::try_from(values).map_err(|_| {
             self.invalid(
                 at.to_string(),
-                format!("{name}=\"{text}\" is not three numbers"),
+                format!("{name}=\"{text}\" is not three finite numbers"),
             )
         })
     }

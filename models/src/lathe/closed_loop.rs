@@ -508,8 +508,16 @@ impl PowerLoop {
             )?;
         }
         let steps = step_count(spec.duration, spec.step)?;
-        let reference = self.lathe.reference_forces();
         let n = spec.points_per_axis;
+        // The whole portrait is bounded, not only one trajectory (n² can wrap or exhaust memory).
+        let total = (n as f64).powi(2) * steps as f64;
+        if total > MAX_STEPS {
+            return Err(LatheError::TooManySteps {
+                steps: total,
+                limit: MAX_STEPS,
+            });
+        }
+        let reference = self.lathe.reference_forces();
         let mut trajectories = Vec::with_capacity(n * n);
         for a in 1..=n {
             for b in 1..=n {

@@ -183,7 +183,7 @@ pub enum LatheError {
         reachable: f64,
         max_feed: f64,
     },
-    #[error("lathe: duration / step asks for {steps} integration steps, more than {limit}")]
+    #[error("lathe: the analysis asks for {steps:.3e} integration steps, more than {limit:.0e} (shorten the duration or use fewer grid points)")]
     TooManySteps { steps: f64, limit: f64 },
     #[error(
         "lathe: the equilibrium at {forces:?} N is not a saddle, so it has no stable manifold"

@@ -7,6 +7,7 @@ mod lathe_output;
 use crate::recording::RecordingError;
 use controllers::output_feedback_design::DesignError;
 use models::lathe::LatheError;
+use crate::output::OutputFile;
 use std::path::{Path, PathBuf};
 use thiserror::Error;
 
@@ -18,11 +19,16 @@ pub enum AnalysisError {
     Lathe(#[from] LatheError),
     #[error(transparent)]
     Design(#[from] DesignError),
+    #[error("{flag}: {reason}")]
+    Argument { flag: &'static str, reason: String },
     #[error("cannot write {path}: {reason}")]
     Output { path: PathBuf, reason: String },
     #[error(transparent)]
     Recording(#[from] RecordingError),
 }
+
+/// Largest `--grid` (points per axis): 10,000 trajectories.
+pub const MAX_GRID: usize = 100;
 
 /// Machines `twin analyze` knows.
 pub const ANALYSES: &[&str] = &["lathe"];
@@ -35,16 +41,15 @@ pub(crate) fn create_dir(dir: &Path) -> Result<(), AnalysisError> {
     })
 }
 
-/// Writes `text` to `path` through `<path>.part`, so a file at `path` is always complete.
+/// Writes `text` as the whole of `path` (see [`crate::output`]: never a half-written file).
 pub(crate) fn write_text(path: &Path, text: &str) -> Result<(), AnalysisError> {
-    let output_error = |e: std::io::Error| AnalysisError::Output {
-        path: path.to_path_buf(),
-        reason: e.to_string(),
+    let output_error = |e: crate::output::OutputError| AnalysisError::Output {
+        path: e.path,
+        reason: e.reason,
     };
-    let mut partial = path.as_os_str().to_owned();
-    partial.push(".part");
-    std::fs::write(&partial, text).map_err(output_error)?;
-    std::fs::rename(&partial, path).map_err(output_error)
+    OutputFile::create(path)
+        .and_then(|file| file.commit(text.as_bytes()))
+        .map_err(output_error)
 }
 
 /// `twin analyze` arguments.
@@ -56,7 +61,7 @@ pub struct AnalyzeArgs {
     #[arg(
         long,
         default_value_t = 0.5,
-        allow_negative_numbers = true,
+        allow_hyphen_values = true,
         conflicts_with_all = ["h1", "h2"]
     )]
     pub m1: f64,
@@ -64,25 +69,25 @@ pub struct AnalyzeArgs {
     #[arg(
         long,
         default_value_t = 0.49,
-        allow_negative_numbers = true,
+        allow_hyphen_values = true,
         conflicts_with_all = ["h1", "h2"]
     )]
     pub m2: f64,
     /// Power gain h_1 in m/(rev·W) (the paper's mm/kW times 1e-6); with --h2 it replaces the
     /// design. Write a negative value with `=`: --h1=-1.3052e-8.
-    #[arg(long, requires = "h2", allow_negative_numbers = true)]
+    #[arg(long, requires = "h2", allow_hyphen_values = true)]
     pub h1: Option<f64>,
     /// Power gain h_2 in m/(rev·W).
-    #[arg(long, requires = "h1", allow_negative_numbers = true)]
+    #[arg(long, requires = "h1", allow_hyphen_values = true)]
     pub h2: Option<f64>,
     /// Initial forces of the portrait grid go up to this for both tools, N.
-    #[arg(long, default_value_t = 5000.0, allow_negative_numbers = true)]
+    #[arg(long, default_value_t = 5000.0, allow_hyphen_values = true)]
     pub max_force: f64,
     /// Grid points per axis of the portrait.
-    #[arg(long, default_value_t = 12)]
+    #[arg(long, default_value_t = 12, allow_hyphen_values = true)]
     pub grid: usize,
     /// Simulated time per trajectory, s.
-    #[arg(long, default_value_t = 20.0, allow_negative_numbers = true)]
+    #[arg(long, default_value_t = 20.0, allow_hyphen_values = true)]
     pub duration: f64,
     /// Folder for the CSV files and phase_plane.rrd.
     #[arg(long, default_value = "lathe-phase")]
@@ -95,6 +100,12 @@ pub fn run(args: &AnalyzeArgs) -> Result<String, AnalysisError> {
         return Err(AnalysisError::Unknown {
             name: args.machine.clone(),
             known: ANALYSES.join(", "),
+        });
+    }
+    if !(1..=MAX_GRID).contains(&args.grid) {
+        return Err(AnalysisError::Argument {
+            flag: "--grid",
+            reason: format!("must be 1 to {MAX_GRID} points per axis, got {}", args.grid),
         });
     }
     let gains = match (args.h1, args.h2) {
