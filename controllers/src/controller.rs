@@ -83,7 +83,7 @@ pub enum ControllerError {
     #[error("controller needs signal `{signal}`, which machine `{machine}` does not measure")]
     MissingSignal { machine: String, signal: String },
     #[error(
-        "controller needs an actuator on joint `{joint}`, which machine `{machine}` does not have"
+        "controller needs an actuator on joint `{joint}`, which machine `{machine}` does not have (a URDF joint is actuated when its <limit effort> is > 0)"
     )]
     MissingActuator { machine: String, joint: String },
     #[error("controller `{controller}` does not fit machine `{machine}`")]

@@ -4,9 +4,9 @@ use clap::{Parser, Subcommand};
 use controllers::Registry;
 use std::path::PathBuf;
 use std::process::ExitCode;
+use twin::output::{same_file, OutputFile};
 use twin::recording::LiveViewer;
 use twin::scenario::{self, Overrides};
-use twin::output::{same_file, OutputFile};
 use twin::{reproduce, summary, StopFlag, Twin};
 
 /// Exit codes, as documented in `--help` and the README.
@@ -196,7 +196,11 @@ fn run(args: RunArgs, registry: &Registry) -> Result<ExitCode, Failure> {
         )));
     }
     // Created now, so that an unwritable summary path fails before the run, not after it.
-    let summary_file = args.summary.as_deref().map(OutputFile::create).transpose()?;
+    let summary_file = args
+        .summary
+        .as_deref()
+        .map(OutputFile::create)
+        .transpose()?;
     let mut twin = Twin::new(loaded, registry)?.with_stop_flag(stop_on_signals()?);
     if let Some(url) = args.connect {
         twin = twin.with_live_viewer(LiveViewer::Connect(url));

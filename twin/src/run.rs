@@ -26,10 +26,20 @@ pub enum TwinError {
     Scenario(#[from] ScenarioError),
     #[error(transparent)]
     Urdf(#[from] UrdfError),
-    #[error(transparent)]
-    Machine(#[from] MachineError),
-    #[error(transparent)]
-    Controller(#[from] ControllerError),
+    /// A machine's checks cover the scenario's `[process]` table and the URDF's geometry: both
+    /// files are named.
+    #[error("{scenario} (URDF {urdf}): {source}")]
+    Machine {
+        scenario: String,
+        urdf: String,
+        source: MachineError,
+    },
+    /// A controller's parameters are the scenario's; its plant check also concerns the URDF.
+    #[error("{context}: {source}")]
+    Controller {
+        context: String,
+        source: ControllerError,
+    },
     #[error("{source_name}: sensors.\"{signal}\": no such measured signal (known: {known})")]
     UnknownSensor {
         source_name: String,
@@ -140,7 +150,13 @@ impl Twin {
     /// Builds the twin with a controller from `registry` (the scenario names it).
     pub fn new(loaded: LoadedScenario, registry: &Registry) -> Result<Self, TwinError> {
         let spec = &loaded.scenario.controller;
-        let controller = registry.build(&spec.name, &spec.params)?;
+        let controller =
+            registry
+                .build(&spec.name, &spec.params)
+                .map_err(|source| TwinError::Controller {
+                    context: loaded.source.clone(),
+                    source,
+                })?;
         Self::with_controller(loaded, controller)
     }
 
@@ -156,7 +172,12 @@ impl Twin {
             &mechanism,
             &scenario.process,
             scenario.reference,
-        )?;
+        )
+        .map_err(|source| TwinError::Machine {
+            scenario: loaded.source.clone(),
+            urdf: loaded.urdf_source.clone(),
+            source,
+        })?;
         let movable: Vec<usize> = (0..mechanism.joints.len())
             .filter(|&j| mechanism.joints[j].motion.is_movable())
             .collect();
@@ -213,7 +234,12 @@ impl Twin {
                 })?;
             sensors[index] = Some(Sensor::new(*spec, scenario.control_period()));
         }
-        controller.reset(&plant)?;
+        controller
+            .reset(&plant)
+            .map_err(|source| TwinError::Controller {
+                context: format!("{} (URDF {})", loaded.source, loaded.urdf_source),
+                source,
+            })?;
         Ok(Self {
             loaded,
             mechanism,
@@ -506,7 +532,10 @@ impl Twin {
     }
 
     fn stop_requested(&self) -> Option<usize> {
-        let signal = self.stop.as_ref()?.load(std::sync::atomic::Ordering::Relaxed);
+        let signal = self
+            .stop
+            .as_ref()?
+            .load(std::sync::atomic::Ordering::Relaxed);
         (signal != 0).then_some(signal)
     }
 

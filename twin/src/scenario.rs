@@ -372,19 +372,25 @@ pub fn load(name_or_path: &str, overrides: &Overrides) -> Result<LoadedScenario,
 
 type UrdfLookup = (Result<String, String>, String);
 
-/// The URDF beside the scenario file, else a built-in one of that path.
+/// The URDF beside a scenario file, else a built-in one of that path; for a built-in scenario,
+/// a built-in URDF, else a file of that path (absolute or from the working folder).
 fn find_urdf(path: &str, folder: Option<&Path>) -> Option<UrdfLookup> {
-    if let Some(folder) = folder {
-        let candidate: PathBuf = folder.join(path);
-        if candidate.exists() {
+    let file = |candidate: PathBuf| {
+        candidate.exists().then(|| {
             let text = read_text(&candidate);
-            return Some((text, candidate.display().to_string()));
-        }
+            (text, candidate.display().to_string())
+        })
+    };
+    let builtin = || {
+        BUILTIN_URDF
+            .iter()
+            .find(|(name, _)| *name == path)
+            .map(|(name, text)| (Ok(text.to_string()), format!("built-in {name}")))
+    };
+    match folder {
+        Some(folder) => file(folder.join(path)).or_else(builtin),
+        None => builtin().or_else(|| file(PathBuf::from(path))),
     }
-    BUILTIN_URDF
-        .iter()
-        .find(|(name, _)| *name == path)
-        .map(|(name, text)| (Ok(text.to_string()), format!("built-in {name}")))
 }
 
 /// Reads a text file of at most [`MAX_INPUT_BYTES`] (a device or huge file is refused, not read

@@ -1,9 +1,9 @@
 //! How a run is reported: a table for people, JSON for scripts.
 
+use crate::output::{OutputError, OutputFile};
 use crate::run::RunSummary;
 use serde_json::{json, Map, Value};
 use std::fmt::Write as _;
-use crate::output::{OutputError, OutputFile};
 
 /// The summary as JSON: `scenario`, `controller`, `dt`, `steps`, `wall_s`, `steps_per_s`,
 /// `metrics` (named numbers), `status` (`ok`, `failed` or `interrupted`), `failure` (the reason,

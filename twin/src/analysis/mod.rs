@@ -4,10 +4,10 @@
 pub mod lathe;
 mod lathe_output;
 
+use crate::output::OutputFile;
 use crate::recording::RecordingError;
 use controllers::output_feedback_design::DesignError;
 use models::lathe::LatheError;
-use crate::output::OutputFile;
 use std::path::{Path, PathBuf};
 use thiserror::Error;
 

@@ -137,9 +137,12 @@ fn run_one(
     )
     .map_err(crate::run::TwinError::from)?;
     let spec = &loaded.scenario.controller;
-    let inner = registry
-        .build(&spec.name, &spec.params)
-        .map_err(crate::run::TwinError::from)?;
+    let inner = registry.build(&spec.name, &spec.params).map_err(|source| {
+        crate::run::TwinError::Controller {
+            context: loaded.source.clone(),
+            source,
+        }
+    })?;
     let seen = Arc::new(Mutex::new(Oscillation::default()));
     let probe = Probe {
         inner,

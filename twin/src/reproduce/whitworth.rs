@@ -216,7 +216,10 @@ fn run_one(
     let window_start = loaded.scenario.duration - MSE_WINDOW;
     let inner = registry
         .build(controller, &loaded.scenario.controller.params)
-        .map_err(crate::run::TwinError::from)?;
+        .map_err(|source| crate::run::TwinError::Controller {
+            context: loaded.source.clone(),
+            source,
+        })?;
     let figures = Arc::new(Mutex::new(Figures::default()));
     let probe = Probe {
         inner,

@@ -1,0 +1,370 @@
+//! Hostile inputs, outputs and signals, one test per reproducer of the hardening issue: each ends
+//! in bounded time with a one-line error naming what to change (exit 1, or 2 for usage), leaves
+//! nothing half-written, and a stopped run keeps a complete recording.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output, Stdio};
+use std::time::{Duration, Instant};
+
+/// Longest any of these commands may take (a debug build on a loaded 2-core machine).
+const BOUND: Duration = Duration::from_secs(60);
+
+fn scratch(test: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("twin-hostile-{}-{test}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+/// Runs `twin` in `cwd`, killing it and failing the test if it outlives [`BOUND`].
+fn twin(args: &[&str], cwd: &Path) -> Output {
+    let child = Command::new(env!("CARGO_BIN_EXE_twin"))
+        .args(args)
+        .current_dir(cwd)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("twin starts");
+    wait_bounded(child, args)
+}
+
+fn wait_bounded(mut child: std::process::Child, what: &[&str]) -> Output {
+    let start = Instant::now();
+    while child.try_wait().expect("wait").is_none() {
+        if start.elapsed() > BOUND {
+            child.kill().ok();
+            panic!("{what:?} still running after {BOUND:?}");
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    child.wait_with_output().expect("output")
+}
+
+fn stderr(output: &Output) -> String {
+    String::from_utf8_lossy(&output.stderr).into_owned()
+}
+
+/// Files left in `dir` (none may be after a failed command).
+fn files(dir: &Path) -> Vec<String> {
+    let mut names: Vec<String> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    names.sort();
+    names
+}
+
+/// Exit 1, one line `error: …` naming every part, nothing written in `dir` besides `keep`.
+fn fails(output: &Output, parts: &[&str], dir: &Path, keep: &[&str]) {
+    let text = stderr(output);
+    assert_eq!(output.status.code(), Some(1), "exit code; stderr: {text}");
+    assert_eq!(text.trim().lines().count(), 1, "one line expected: {text}");
+    assert!(text.starts_with("error: "), "{text}");
+    for part in parts {
+        assert!(text.contains(part), "`{part}` missing from: {text}");
+    }
+    let left: Vec<String> = files(dir)
+        .into_iter()
+        .filter(|f| !keep.contains(&f.as_str()))
+        .collect();
+    assert!(left.is_empty(), "nothing may be left behind: {left:?}");
+}
+
+fn run_fails(test: &str, args: &[&str], parts: &[&str]) {
+    let dir = scratch(test);
+    let output = twin(args, &dir);
+    fails(&output, parts, &dir, &[]);
+}
+
+/// A scenario file in `dir` from a built-in one, its URDF replaced by `urdf` (written beside).
+fn scenario_with_urdf(dir: &Path, urdf: &str) -> String {
+    std::fs::write(dir.join("m.urdf"), urdf).unwrap();
+    let toml = include_str!("../scenarios/whitworth-crank-pi.toml")
+        .replace("urdf = \"urdf/whitworth.urdf\"", "urdf = \"m.urdf\"");
+    assert!(toml.contains("m.urdf"));
+    std::fs::write(dir.join("m.toml"), toml).unwrap();
+    "m.toml".into()
+}
+
+fn urdf_fails(test: &str, urdf: &str, parts: &[&str]) {
+    let dir = scratch(test);
+    let scenario = scenario_with_urdf(&dir, urdf);
+    let output = twin(&["run", &scenario, "--duration", "0.01"], &dir);
+    fails(&output, parts, &dir, &["m.toml", "m.urdf"]);
+}
+
+const WHITWORTH: &str = include_str!("../../urdf/whitworth.urdf");
+
+#[test]
+fn huge_sensor_delay_is_refused() {
+    for delay in ["1e16", "1e15", "11"] {
+        run_fails(
+            &format!("delay{delay}"),
+            &[
+                "run",
+                "whitworth-crank-pi",
+                "--set",
+                &format!("sensors.\"crank.position\".delay={delay}"),
+            ],
+            &["sensors.\"crank.position\"", "delay", "duration"],
+        );
+    }
+}
+
+#[test]
+fn huge_analysis_grids_are_refused() {
+    for grid in ["1000000000", "100000", "4294967296", "101"] {
+        run_fails(
+            &format!("grid{grid}"),
+            &["analyze", "lathe", "--grid", grid],
+            &["--grid", "1 to 100"],
+        );
+    }
+    // Within the grid cap but beyond the work cap: the integration-step bound names the way out.
+    run_fails(
+        "gridwork",
+        &["analyze", "lathe", "--grid", "100", "--duration", "200"],
+        &["integration steps", "fewer grid points"],
+    );
+}
+
+#[test]
+fn deeply_nested_urdf_is_refused_before_parsing() {
+    for depth in [20_000, 1_000_000] {
+        let urdf = format!(
+            "<robot name=\"r\">{}{}</robot>",
+            "<a>".repeat(depth),
+            "</a>".repeat(depth)
+        );
+        let start = Instant::now();
+        urdf_fails(
+            &format!("deep{depth}"),
+            &urdf,
+            &["m.urdf", "nested more than"],
+        );
+        assert!(start.elapsed() < Duration::from_secs(20), "{depth} levels");
+    }
+}
+
+#[test]
+fn very_deep_set_keys_are_refused() {
+    let segments = vec!["a"; 12_000].join(".");
+    run_fails(
+        "setdeep",
+        &[
+            "run",
+            "whitworth-crank-pi",
+            "--set",
+            &format!("{segments}=1"),
+        ],
+        &["--set a.a.a", "longer than 256"],
+    );
+    run_fails(
+        "setlevels",
+        &["run", "whitworth-crank-pi", "--set", "a.b.c.d.e.f.g.h.i=1"],
+        &["deeper than 8"],
+    );
+}
+
+#[test]
+fn non_finite_urdf_origins_are_refused() {
+    let visual = "<origin xyz=\"-0.125 0.12093 0\"/>";
+    assert!(WHITWORTH.contains(visual));
+    for bad in [
+        "<origin xyz=\"-0.125 0.12093 nan\"/>",
+        "<origin xyz=\"NaN 0.12093 0\"/>",
+        "<origin xyz=\"-0.125 0.12093 0\" rpy=\"nan 0 0\"/>",
+        "<origin xyz=\"-0.125 0.12093 0\" rpy=\"0 0 inf\"/>",
+    ] {
+        urdf_fails(
+            "nanorigin",
+            &WHITWORTH.replacen(visual, bad, 1),
+            &["link \"ground\" <visual>", "must be finite"],
+        );
+    }
+}
+
+#[test]
+fn a_root_other_than_robot_is_refused() {
+    let urdf = WHITWORTH
+        .replace("<robot ", "<model ")
+        .replace("</robot>", "</model>");
+    urdf_fails("root", &urdf, &["m.urdf", "<model>", "<robot>"]);
+}
+
+#[test]
+fn bad_effort_limits_are_refused() {
+    for effort in ["nan", "-5", "inf"] {
+        let urdf = WHITWORTH.replace("effort=\"300\"", &format!("effort=\"{effort}\""));
+        urdf_fails(
+            &format!("effort{effort}"),
+            &urdf,
+            &["joint \"crank\" <limit>", "effort"],
+        );
+    }
+}
+
+#[test]
+fn unbounded_or_non_finite_timing_is_refused() {
+    let cases: [(&[&str], &[&str]); 7] = [
+        (
+            &["--set", "control_period=inf"],
+            &["control_period", "finite"],
+        ),
+        (&["--duration", "1e308"], &["max_steps", "--set max_steps"]),
+        (&["--duration", "-inf"], &["duration", "finite"]),
+        (&["--set", "dt=1e-12"], &["max_steps"]),
+        (&["--set", "substeps=1000000000"], &["substeps", "1 and 64"]),
+        (
+            &["--set", "urdf=\"/dev/zero\""],
+            &["/dev/zero", "larger than 8 MiB"],
+        ),
+        (
+            &["--set", "controller.params.natural_frequency=inf"],
+            &["controller.params.natural_frequency", "finite"],
+        ),
+    ];
+    for (k, (extra, parts)) in cases.iter().enumerate() {
+        let mut args = vec!["run", "whitworth-crank-pi"];
+        args.extend_from_slice(extra);
+        run_fails(&format!("timing{k}"), &args, parts);
+    }
+}
+
+#[test]
+fn arrays_of_the_wrong_length_are_refused() {
+    run_fails(
+        "gravity",
+        &[
+            "run",
+            "whitworth-crank-pi",
+            "--set",
+            "gravity=[0, -9.81, 5]",
+        ],
+        &["`gravity`", "3 elements"],
+    );
+    run_fails(
+        "gaps",
+        &[
+            "run",
+            "lathe-turning",
+            "--set",
+            "process.approach_gaps=[1e-3, 1e-3, 1e-3]",
+        ],
+        &["approach_gaps", "3 elements"],
+    );
+    run_fails(
+        "short",
+        &["run", "whitworth-crank-pi", "--set", "gravity=[0]"],
+        &["gravity"],
+    );
+}
+
+#[test]
+fn scenario_names_cannot_leave_the_folder() {
+    for name in ["../x", "/tmp/x", ".hidden", "a/b"] {
+        run_fails(
+            "name",
+            &[
+                "run",
+                "whitworth-crank-pi",
+                "--set",
+                &format!("name=\"{name}\""),
+            ],
+            &["name", "names the recording file"],
+        );
+    }
+}
+
+#[test]
+fn bad_output_paths_fail_before_the_run() {
+    let dir = scratch("outdir");
+    std::fs::create_dir(dir.join("folder")).unwrap();
+    for (args, parts) in [
+        (&["--out", "folder"][..], &["folder", "directory"][..]),
+        (&["--summary", "folder"], &["folder", "directory"]),
+        (&["--summary", "/proc/x.json"], &["/proc/x.json"]),
+        (&["--out", "/proc/x.rrd"], &["/proc/x.rrd"]),
+    ] {
+        let mut all = vec!["run", "whitworth-crank-pi", "--duration", "5"];
+        all.extend_from_slice(args);
+        let start = Instant::now();
+        let output = twin(&all, &dir);
+        fails(&output, parts, &dir, &["folder"]);
+        assert!(output.stdout.is_empty(), "no run may happen: {args:?}");
+        assert!(start.elapsed() < Duration::from_secs(10), "{args:?}");
+        assert!(files(&dir.join("folder")).is_empty());
+    }
+}
+
+#[test]
+fn recording_and_summary_must_differ() {
+    let dir = scratch("same");
+    let output = twin(
+        &[
+            "run",
+            "whitworth-crank-pi",
+            "--duration",
+            "0.1",
+            "--out",
+            "x.json",
+            "--summary",
+            "./x.json",
+        ],
+        &dir,
+    );
+    let text = stderr(&output);
+    assert_eq!(output.status.code(), Some(2), "{text}");
+    assert!(text.contains("different files"), "{text}");
+    assert!(files(&dir).is_empty());
+}
+
+#[test]
+fn usage_errors_exit_2_in_one_line_and_a_hint() {
+    let dir = scratch("usage");
+    for args in [
+        &["run", "whitworth-crank-pi", "--bogus"][..],
+        &["run"],
+        &["analyze", "lathe", "--grid", "-1"],
+        &["run", "whitworth-crank-pi", "--duration", "soon"],
+        &["frobnicate"],
+    ] {
+        let output = twin(args, &dir);
+        let text = stderr(&output);
+        assert_eq!(output.status.code(), Some(2), "{args:?}: {text}");
+        let lines: Vec<&str> = text.trim().lines().collect();
+        assert_eq!(lines.len(), 2, "{args:?}: {text}");
+        assert!(lines[0].starts_with("error: "), "{text}");
+        assert!(lines[1].starts_with("hint: "), "{text}");
+    }
+    let help = twin(&["--help"], &dir);
+    assert_eq!(help.status.code(), Some(0));
+    let text = String::from_utf8_lossy(&help.stdout);
+    assert!(
+        text.contains("Exit codes: 0 ok, 1 error, 2 usage error, 3"),
+        "{text}"
+    );
+    assert!(files(&dir).is_empty());
+}
+
+#[test]
+fn a_diverging_run_exits_3_and_keeps_its_recording() {
+    let dir = scratch("diverge");
+    let output = twin(
+        &[
+            "run",
+            "whitworth-crank-pi",
+            "--duration",
+            "2",
+            "--set",
+            "health.max_joint_speed=1e-3",
+            "--summary",
+            "s.json",
+        ],
+        &dir,
+    );
+    let text = stderr(&output);
+    assert_eq!(output.status.code(), Some(3), "{text}");
+    assert!(text.contains("diverged at step"), "{text}");
+    assert_eq!(files(&dir), ["s.json", "whitworth-crank-pi.rrd"]);
+}
