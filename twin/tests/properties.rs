@@ -297,10 +297,8 @@ fn mutate_toml(text: &str, mutation: &TomlMutation) -> (String, Vec<String>) {
         &mut Vec::new(),
         &mut paths,
     );
-    let (n, parent_only) = match mutation {
-        TomlMutation::Replace(n, _) | TomlMutation::Delete(n) => (*n, false),
-        TomlMutation::Unknown(n) => (*n, true),
-    };
+    let (TomlMutation::Replace(n, _) | TomlMutation::Delete(n) | TomlMutation::Unknown(n)) =
+        *mutation;
     let path = paths[n % paths.len()].clone();
     let (last, parents) = path.split_last().unwrap();
     let mut current = &mut table;
@@ -321,7 +319,6 @@ fn mutate_toml(text: &str, mutation: &TomlMutation) -> (String, Vec<String>) {
             names = vec!["bogus_key".into()];
         }
     }
-    let _ = parent_only;
     // Errors found downstream name the table (e.g. a controller's missing parameter).
     names.extend(parents.iter().cloned());
     (toml::to_string(&table).unwrap(), names)
