@@ -121,6 +121,14 @@ pub fn design(controller: &str, params: &ServoParams) -> Result<ServoDesign, Con
             ki: w.powi(3) * j / k,
             kd: 3.0 * w * j / k,
         };
+        if ![gains[i].kp, gains[i].ki, gains[i].kd]
+            .iter()
+            .all(|g| g.is_finite())
+        {
+            return Err(bad(format!(
+                "servo.bandwidth, inertia and torque_per_ampere of {joint} give gains that overflow"
+            )));
+        }
     }
     let program = JointPath::new(&params.arm, &params.contour, params.elbow)
         .map_err(|e| bad(e.to_string()))?;

@@ -67,10 +67,16 @@ pub fn design(params: &CrankPiParams) -> Result<PiGains, ControllerError> {
         return Err(bad("crank_speed must be finite"));
     }
     let wn = params.natural_frequency;
-    Ok(PiGains {
+    let gains = PiGains {
         kp: 2.0 * params.damping_ratio * wn * params.inertia,
         ki: wn * wn * params.inertia,
-    })
+    };
+    if !(gains.kp.is_finite() && gains.ki.is_finite()) {
+        return Err(bad(
+            "natural_frequency, damping_ratio and inertia are so large the gains overflow",
+        ));
+    }
+    Ok(gains)
 }
 
 /// The running law: PI on the crank-speed error, with the integrator frozen while the torque is

@@ -114,6 +114,15 @@ pub fn design(params: &EnergyOptimalParams) -> Result<EnergyOptimalDesign, Contr
         .ok_or_else(|| bad("R + Rᵀ is singular".into()))?
         * input_response.transpose()
         * (inertia.transpose() * q1.transpose() + q1 * inertia);
+    if !(input_response
+        .iter()
+        .chain(gain.iter())
+        .all(|v| v.is_finite()))
+    {
+        return Err(bad(
+            "sampling_interval, q1 and r give a gain that overflows; use smaller values".into(),
+        ));
+    }
     Ok(EnergyOptimalDesign {
         inertia,
         input_response,

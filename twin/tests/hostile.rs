@@ -368,3 +368,40 @@ fn a_diverging_run_exits_3_and_keeps_its_recording() {
     assert!(text.contains("diverged at step"), "{text}");
     assert_eq!(files(&dir), ["s.json", "whitworth-crank-pi.rrd"]);
 }
+
+#[test]
+fn overflowing_controller_designs_are_refused_when_built() {
+    for (scenario, key, parts) in [
+        (
+            "whitworth-crank-pi",
+            "controller.params.natural_frequency",
+            &["crank-pi", "overflow"],
+        ),
+        (
+            "arm-milling",
+            "controller.params.servo.bandwidth",
+            &["servo.bandwidth", "overflow"],
+        ),
+        (
+            "platform-path",
+            "controller.params.sampling_interval",
+            &["sampling_interval", "overflow"],
+        ),
+    ] {
+        run_fails(
+            "design",
+            &["run", scenario, "--set", &format!("{key}=1e300")],
+            parts,
+        );
+    }
+    run_fails(
+        "gravity",
+        &[
+            "run",
+            "platform-path",
+            "--set",
+            "process.floor_gravity=1e300",
+        ],
+        &["floor_gravity", "(0, 100]"],
+    );
+}

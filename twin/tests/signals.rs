@@ -50,13 +50,19 @@ fn interrupt_with(signal: &str, code: i32) {
     assert!(sent.success());
     let start = Instant::now();
     while child.try_wait().unwrap().is_none() {
-        assert!(start.elapsed() < Duration::from_secs(30), "no stop after {signal}");
+        assert!(
+            start.elapsed() < Duration::from_secs(30),
+            "no stop after {signal}"
+        );
         std::thread::sleep(Duration::from_millis(20));
     }
     let output = child.wait_with_output().unwrap();
     let stderr = String::from_utf8_lossy(&output.stderr);
     assert_eq!(output.status.code(), Some(code), "{stderr}");
-    assert!(stderr.contains(&format!("interrupted by {signal}")), "{stderr}");
+    assert!(
+        stderr.contains(&format!("interrupted by {signal}")),
+        "{stderr}"
+    );
     let summary: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(dir.join("s.json")).unwrap()).unwrap();
     assert_eq!(summary["status"], "interrupted");

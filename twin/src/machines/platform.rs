@@ -121,9 +121,10 @@ impl Platform {
         let params: ProcessParams = process_params("platform", process)?;
         params.tyre.validate().map_err(|e| bad(e.to_string()))?;
         params.motor.validate().map_err(bad)?;
-        if !(params.floor_gravity.is_finite() && params.floor_gravity > 0.0) {
+        // Up to 10 g: beyond that no tyre model here holds.
+        if !(params.floor_gravity > 0.0 && params.floor_gravity <= 100.0) {
             return Err(bad(format!(
-                "floor_gravity must be > 0, got {}",
+                "floor_gravity must be in (0, 100] m/s², got {}",
                 params.floor_gravity
             )));
         }
