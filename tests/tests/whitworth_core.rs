@@ -68,7 +68,12 @@ fn a_diverging_run_stops_with_step_time_and_signal_and_keeps_its_recording() {
         "recording too small: {} bytes",
         bytes.len()
     );
-    assert!(!dir.join("diverge.rrd.part").exists());
+    let parts: Vec<_> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|name| name.ends_with(".part"))
+        .collect();
+    assert!(parts.is_empty(), "temporary files left: {parts:?}");
 }
 
 #[test]

@@ -39,6 +39,17 @@ enum Command {
     Reproduce(ReproduceArgs),
     /// Analyse a machine's reduced model (the lathe's phase plane): CSV files and a 2D .rrd.
     Analyze(twin::analysis::AnalyzeArgs),
+    /// Turn what a killed run left (X.rrd.<random>.part) into a complete recording.
+    Salvage(SalvageArgs),
+}
+
+#[derive(clap::Args)]
+struct SalvageArgs {
+    /// The temporary recording a killed run left behind.
+    part: PathBuf,
+    /// The recording to write (default: the part's name up to `.rrd`; never an existing file).
+    #[arg(long)]
+    out: Option<PathBuf>,
 }
 
 #[derive(clap::Args)]
@@ -125,6 +136,7 @@ fn main() -> ExitCode {
         Command::Run(args) => run(args, &registry),
         Command::Bench(args) => bench(args, &registry),
         Command::Reproduce(args) => reproduce(args, &registry),
+        Command::Salvage(args) => salvage(args),
         Command::Analyze(args) => twin::analysis::run(&args)
             .map(|summary| {
                 print!("{summary}");
@@ -210,6 +222,9 @@ fn run(args: RunArgs, registry: &Registry) -> Result<ExitCode, Failure> {
     let result = twin.run(Some(&out))?;
     print!("{}", summary::to_table(&result));
     println!("recording: {}", out.display());
+    for warning in &result.warnings {
+        eprintln!("warning: {warning}");
+    }
     if let Some(file) = summary_file {
         summary::write_json(&result, file)?;
     }
@@ -295,6 +310,46 @@ fn reproduce(args: ReproduceArgs, registry: &Registry) -> Result<ExitCode, Failu
     print!("{}", reproduce::to_table(&report));
     println!("recordings and report.json: {}", args.out_dir.display());
     Ok(ExitCode::SUCCESS)
+}
+
+fn salvage(args: SalvageArgs) -> Result<ExitCode, Failure> {
+    let out = match args.out {
+        Some(out) => out,
+        None => {
+            let out = salvaged_name(&args.part).ok_or_else(|| {
+                Failure::usage(format!(
+                    "{}: not a recording's temporary file (X.rrd.<random>.part); give --out",
+                    args.part.display()
+                ))
+            })?;
+            if out.exists() {
+                return Err(Failure::usage(format!(
+                    "{} exists; name another file with --out",
+                    out.display()
+                )));
+            }
+            out
+        }
+    };
+    let report = twin::recording::salvage(&args.part, &out)?;
+    let time = report.last_sim_time.map_or("no samples".to_string(), |t| {
+        format!("{t:.6} s of simulated time")
+    });
+    println!(
+        "salvaged {time} (last step {}) in {} messages into {}; {} trailing bytes dropped",
+        report.last_step.map_or("none".into(), |s| s.to_string()),
+        report.messages,
+        out.display(),
+        report.dropped_bytes
+    );
+    Ok(ExitCode::SUCCESS)
+}
+
+/// `dir/X.rrd.ab12cd.part` → `dir/X.rrd`.
+fn salvaged_name(part: &std::path::Path) -> Option<PathBuf> {
+    let name = part.file_name()?.to_str()?.strip_suffix(".part")?;
+    let (stem, _random) = name.rsplit_once('.')?;
+    stem.ends_with(".rrd").then(|| part.with_file_name(stem))
 }
 
 /// Peak resident memory of this process, from /proc (Linux).

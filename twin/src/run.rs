@@ -15,7 +15,7 @@ use crate::urdf::{self, UrdfError};
 use controllers::{
     Actuator, Controller, ControllerError, EffortKind, Measurement, PlantInterface, Registry,
 };
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::time::Instant;
 use thiserror::Error;
 
@@ -46,8 +46,6 @@ pub enum TwinError {
         signal: String,
         known: String,
     },
-    #[error("cannot write recording {path}: {reason}")]
-    Output { path: PathBuf, reason: String },
     #[error(transparent)]
     Recording(#[from] RecordingError),
 }
@@ -112,6 +110,8 @@ pub struct RunSummary {
     pub failure: Option<Divergence>,
     /// Set when the run was stopped on request before its end.
     pub interrupted: Option<Interruption>,
+    /// What went wrong beside the run without failing it (a live viewer that did not take it).
+    pub warnings: Vec<String>,
     /// FNV-1a digest of every recorded sample's bits: equal digests, identical series.
     pub series_digest: u64,
 }
@@ -310,9 +310,9 @@ impl Twin {
 
         let mut recorder = match recording {
             None => None,
-            Some(path) => Some(Recording::create(
+            Some(path) => Some(Recorder::create(
                 path,
-                RecordingLayout {
+                &RecordingLayout {
                     app: scenario.name.clone(),
                     live: self.live.clone(),
                     scenario_toml: self.loaded.toml.clone(),
@@ -453,15 +453,22 @@ impl Twin {
 
             let stopped = failure.is_some() || interrupted.is_some();
             let sampled = step % scenario.recording.every == 0 || stopped;
+            // A failed write (a full disk) ends the run here; the partial file is removed.
             if let Some(recorder) = recorder.as_mut() {
                 for (level, text) in events.drain(..) {
-                    recorder.event(step, time, level, &text);
+                    recorder.event(step_index(step), time, level, &text)?;
                 }
                 if let Some(failure) = &failure {
-                    recorder.event(step, time, EventLevel::Error, &failure.to_string());
+                    recorder.event(
+                        step_index(step),
+                        time,
+                        EventLevel::Error,
+                        &failure.to_string(),
+                    )?;
                 }
                 if let Some(interrupted) = &interrupted {
-                    recorder.event(step, time, EventLevel::Warning, &interrupted.to_string());
+                    let text = interrupted.to_string();
+                    recorder.event(step_index(step), time, EventLevel::Warning, &text)?;
                 }
                 if sampled {
                     values.clear();
@@ -475,7 +482,7 @@ impl Twin {
                     values.extend_from_slice(&measured);
                     values.extend_from_slice(&internals);
                     values.extend_from_slice(&diagnostics);
-                    recorder.push(step, time, &state.link_poses, &values);
+                    recorder.push(step_index(step), time, &state.link_poses, &values)?;
                 }
             } else {
                 events.clear();
@@ -504,8 +511,9 @@ impl Twin {
             step += 1;
         }
         let wall_s = started.elapsed().as_secs_f64();
+        let mut warnings = Vec::new();
         if let Some(recorder) = recorder {
-            recorder.finish()?;
+            warnings.extend(recorder.finish()?.live_warning);
         }
 
         let mut metrics = self.machine.metrics();
@@ -527,6 +535,7 @@ impl Twin {
             metrics,
             failure,
             interrupted,
+            warnings,
             series_digest: digest.0,
         })
     }
@@ -601,51 +610,15 @@ impl Digest {
     }
 }
 
+/// The recording's step index (the run's step counts stay far below i64's range).
+fn step_index(step: usize) -> i64 {
+    i64::try_from(step).unwrap_or(i64::MAX)
+}
+
 fn group(path: &str, names: &[String]) -> SeriesGroup {
     SeriesGroup {
         path: path.into(),
         names: names.to_vec(),
-    }
-}
-
-/// A recording written to `<path>.part` and moved to `path` once closed, so that a file at
-/// `path` is always complete.
-struct Recording {
-    recorder: Recorder,
-    partial: PathBuf,
-    path: PathBuf,
-}
-
-impl Recording {
-    fn create(path: &Path, layout: RecordingLayout) -> Result<Self, TwinError> {
-        let mut partial = path.as_os_str().to_owned();
-        partial.push(".part");
-        let partial = PathBuf::from(partial);
-        let recorder = Recorder::create(&partial, &layout).map_err(|e| TwinError::Output {
-            path: path.to_path_buf(),
-            reason: e.to_string(),
-        })?;
-        Ok(Self {
-            recorder,
-            partial,
-            path: path.to_path_buf(),
-        })
-    }
-
-    fn event(&mut self, step: usize, time: f64, level: EventLevel, text: &str) {
-        self.recorder.event(step as i64, time, level, text);
-    }
-
-    fn push(&mut self, step: usize, time: f64, poses: &[crate::mechanism::Pose2], values: &[f64]) {
-        self.recorder.push(step as i64, time, poses, values);
-    }
-
-    fn finish(self) -> Result<(), TwinError> {
-        self.recorder.finish()?;
-        std::fs::rename(&self.partial, &self.path).map_err(|e| TwinError::Output {
-            path: self.path.clone(),
-            reason: e.to_string(),
-        })
     }
 }
 

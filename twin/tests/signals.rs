@@ -1,37 +1,14 @@
 //! SIGINT and SIGTERM stop a run cleanly: the recording is finished (it verifies), the summary
 //! says `interrupted` and where, and the exit code is 128 + the signal.
 
-use std::path::{Path, PathBuf};
+mod common;
+
+use common::{parts, scratch, verify};
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
-fn scratch(test: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("twin-signals-{}-{test}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
-
-/// `rerun rrd verify` with the CLI `scripts/test-tools` provides; a missing CLI fails the test.
-pub fn verify(path: &Path) {
-    let cli = std::env::var_os("TWIN_RERUN_CLI").unwrap_or_else(|| "rerun".into());
-    let output = Command::new(&cli)
-        .args(["rrd", "verify"])
-        .arg(path)
-        .output()
-        .unwrap_or_else(|e| {
-            panic!("the Rerun CLI {cli:?} is needed (eval \"$(scripts/test-tools)\"): {e}")
-        });
-    assert!(
-        output.status.success(),
-        "rrd verify {}: {}",
-        path.display(),
-        String::from_utf8_lossy(&output.stderr)
-    );
-}
-
 fn interrupt_with(signal: &str, code: i32) {
-    let dir = scratch(signal);
+    let dir = scratch("signals", signal);
     let mut child = Command::new(env!("CARGO_BIN_EXE_twin"))
         .args(["run", "whitworth-crank-pi", "--duration", "5000"])
         .args(["--summary", "s.json", "--out", "run.rrd"])
@@ -69,12 +46,7 @@ fn interrupt_with(signal: &str, code: i32) {
     let reached = summary["time_reached"].as_f64().unwrap();
     assert!(reached > 0.0 && reached < 5000.0, "{reached}");
     verify(&dir.join("run.rrd"));
-    let left: Vec<_> = std::fs::read_dir(&dir)
-        .unwrap()
-        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
-        .filter(|f| f.ends_with(".part"))
-        .collect();
-    assert!(left.is_empty(), "{left:?}");
+    assert!(parts(&dir).is_empty(), "{:?}", parts(&dir));
     std::fs::remove_dir_all(&dir).ok();
 }
 

@@ -12,11 +12,20 @@
 //!
 //! Every sample is on two timelines: `step` (sequence) and `sim_time` (duration). Samples are
 //! buffered in columns and sent with `send_columns` every [`FLUSH_EVERY`] samples and at the end.
+//!
+//! A recording is never lost, corrupt or half-written: it is written under a temporary name beside
+//! its path and renamed onto it once complete, write failures stop the run with the OS's reason
+//! (see [`Recorder`]), a live viewer streams on a path of its own that cannot fail the file, and
+//! [`salvage`] completes what a killed run left.
 
 mod blueprint;
+mod live;
 mod plots;
+mod salvage;
+mod writer;
 
 pub use plots::{write_plot, Plot2D, PlotGeometry, PlotLayer};
+pub use salvage::{salvage, SalvageReport};
 
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -28,12 +37,15 @@ use rerun::external::arrow::array::{
 };
 use rerun::external::arrow::datatypes::DataType;
 use rerun::log::ChunkBatcherConfig;
+use rerun::sink::LogSink;
 use rerun::{
     ApplicationId, EntityPath, EntityPathPart, Loggable, RecordingStream, RecordingStreamBuilder,
     SerializedComponentBatch, SerializedComponentColumn, TimeColumn,
 };
 
 use crate::mechanism::{wrap_angle, Outline, Pose2, Shape};
+use live::LiveHandle;
+use writer::{FileState, FileWriter, PartFile};
 
 const MECHANISM: &str = "mechanism";
 const SIGNALS: &str = "signals";
@@ -107,24 +119,50 @@ pub enum RecordingError {
     Create { path: PathBuf, reason: String },
     #[error("cannot write the recording {}: {reason}", path.display())]
     Write { path: PathBuf, reason: String },
+    #[error("cannot read the recording {}: {reason}", path.display())]
+    Read { path: PathBuf, reason: String },
 }
 
-/// Writes one run to an `.rrd` file. Samples are buffered and sent in columns; the file is complete
-/// (footer written) after [`Recorder::finish`], or when the recorder is dropped.
+/// How a finished recording went.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct RecordingOutcome {
+    /// The complete recording (the path given to [`Recorder::create`]).
+    pub path: PathBuf,
+    /// Its size, bytes.
+    pub bytes: u64,
+    /// Why the live viewer, if any, did not get the whole run. The file is complete regardless: a
+    /// viewer's failure is a warning, never an error.
+    pub live_warning: Option<String>,
+}
+
+/// Writes one run to an `.rrd` file, atomically: the data goes to a temporary file beside `path`
+/// ([`Recorder::part_path`]), which [`Recorder::finish`] completes and renames onto `path`. A file at
+/// `path` is therefore always a complete recording; on an error, or when the recorder is dropped
+/// without `finish` (a panic), the temporary file is removed. A run killed outright (`kill -9`)
+/// leaves it behind, and [`salvage`] makes a complete recording of it.
+///
+/// Samples are buffered and sent in columns. A failed write to the file (disk full, quota, file
+/// size limit) is returned, with the OS's reason, by the next [`Recorder::push`] or
+/// [`Recorder::event`] once Rerun's pipeline has reached it, and at the latest by the `push` that
+/// sends the next buffer ([`FLUSH_EVERY`] samples): the file is kept at most one buffer behind.
 pub struct Recorder {
     path: PathBuf,
-    /// `None` once closed.
+    /// The temporary file being written, as named on disk.
+    part_path: PathBuf,
+    /// `None` once closed (dropping it drains Rerun's pipeline into the file).
     stream: Option<RecordingStream>,
+    /// The file and its first write failure, shared with the stream's sink.
+    file: Arc<FileState>,
+    /// How the live viewer fared, if there is one.
+    live: Option<LiveHandle>,
+    /// Flushes of the pipeline started, one per buffer sent from `push`.
+    flushes: u64,
     links: Vec<LinkPoses>,
     groups: Vec<Group>,
-    /// Total number of values per sample (sum of the groups' widths).
-    width: usize,
     steps: Vec<i64>,
     times: Vec<f64>,
     /// The last finite time pushed, which stands in for a non-finite one.
     last_time: f64,
-    /// The first error met while sending buffered columns from `push`, reported by `finish`.
-    deferred_error: Option<String>,
 }
 
 /// A link's buffered world poses.
@@ -146,44 +184,37 @@ struct Group {
 }
 
 impl Recorder {
-    /// Opens `path` for writing and logs the static parts: the y-up root transform, the link
+    /// Starts a recording of `path` and logs the static parts: the y-up root transform, the link
     /// shapes, the scenario text, the series names and the default blueprint.
+    ///
+    /// Fails at once, naming `path`, when it is a directory, its folder does not exist or is not
+    /// writable, or the live viewer cannot be set up. Concurrent runs may record the same `path`:
+    /// each writes a file of its own, and the last to finish replaces the others' (last complete
+    /// run wins; the file is never a mix).
     pub fn create(path: &Path, layout: &RecordingLayout) -> Result<Recorder, RecordingError> {
         let create_error = |reason: String| RecordingError::Create {
             path: path.to_path_buf(),
             reason,
         };
-
-        let links: Vec<LinkPoses> = layout
-            .links
-            .iter()
-            .map(|(name, _)| LinkPoses {
-                entity: EntityPath::new(vec![
-                    EntityPathPart::new(MECHANISM),
-                    EntityPathPart::new(name.as_str()),
-                ]),
-                translations: Vec::with_capacity(3 * FLUSH_EVERY),
-                angles: Vec::with_capacity(FLUSH_EVERY),
-                all_finite: true,
-            })
-            .collect();
-        let groups: Vec<Group> = layout
-            .series
-            .iter()
-            .map(|group| Group {
-                entity: EntityPath::from(format!("{SIGNALS}/{}", group.path.trim_matches('/'))),
-                width: group.names.len(),
-                values: Vec::with_capacity(FLUSH_EVERY * group.names.len()),
-            })
-            .collect();
+        let part = PartFile::create(path).map_err(create_error)?;
+        let part_path = part.temp_path();
+        let file = FileState::new(part);
+        let (feed, live) = match &layout.live {
+            Some(viewer) => {
+                let (feed, handle) = live::start(viewer).map_err(create_error)?;
+                (Some(feed), Some(handle))
+            }
+            None => (None, None),
+        };
+        let (links, groups) = buffers(layout);
         let plots: Vec<(EntityPath, String)> = groups
             .iter()
             .zip(&layout.series)
             .filter(|(group, _)| group.width > 0)
             .map(|(group, series)| (group.entity.clone(), series.path.clone()))
             .collect();
-
-        let builder = RecordingStreamBuilder::new(application_id(&layout.app))
+        let sink: Box<dyn LogSink> = Box::new(FileWriter::new(file.clone(), feed));
+        let stream = RecordingStreamBuilder::new(application_id(&layout.app))
             .recording_name(layout.app.as_str())
             // Ignore the `RERUN` environment variable: the file is the run's product.
             .enabled(true)
@@ -192,66 +223,29 @@ impl Recorder {
                 max_bytes_in_flight: MAX_BYTES_IN_FLIGHT,
                 ..ChunkBatcherConfig::DEFAULT
             })
-            .with_blueprint(blueprint::default_blueprint(&plots));
-        let stream = match &layout.live {
-            None => builder.save(path),
-            Some(live) => {
-                let viewer = grpc_sink(live).map_err(create_error)?;
-                match rerun::sink::FileSink::new(path) {
-                    Ok(file) => builder.set_sinks((file, viewer)),
-                    Err(err) => Err(rerun::RecordingStreamError::FileSink(err)),
-                }
-            }
-        }
-        .map_err(|err| match err {
-            // The usual case (missing directory, no permission): the OS's reason is enough.
-            rerun::RecordingStreamError::FileSink(rerun::sink::FileSinkError::CreateFile {
-                source,
-                ..
-            }) => create_error(source.to_string()),
-            other => create_error(error_chain(&other)),
-        })?;
-
-        let log_static = |entity: &EntityPath, archetype: &dyn rerun::AsComponents| {
-            stream
-                .log_static(entity.clone(), archetype)
-                .map_err(|err| create_error(error_chain(&err)))
-        };
-        log_static(
-            &EntityPath::from(MECHANISM),
-            &Transform3D::from_scale([1.0, -1.0, 1.0]),
-        )?;
-        for (index, ((_, shapes), link)) in layout.links.iter().zip(&links).enumerate() {
-            if let Some(strips) = link_strips(shapes, PALETTE[index % PALETTE.len()]) {
-                log_static(&link.entity, &strips)?;
-            }
-        }
-        log_static(
-            &EntityPath::from(SCENARIO),
-            &TextDocument::new(layout.scenario_toml.as_str())
-                .with_media_type(MediaType::plain_text()),
-        )?;
-        for (group, series) in groups.iter().zip(&layout.series) {
-            if group.width > 0 {
-                log_static(
-                    &group.entity,
-                    &SeriesLines::new().with_names(series.names.iter().map(String::as_str)),
-                )?;
-            }
-        }
-
-        let width = groups.iter().map(|g| g.width).sum();
+            .with_blueprint(blueprint::default_blueprint(&plots))
+            .set_sinks(vec![sink])
+            .map_err(|err| create_error(error_chain(&err)))?;
+        log_layout(&stream, layout, &links, &groups).map_err(create_error)?;
         Ok(Recorder {
             path: path.to_path_buf(),
+            part_path,
             stream: Some(stream),
+            file,
+            live,
+            flushes: 0,
             links,
             groups,
-            width,
             steps: Vec::with_capacity(FLUSH_EVERY),
             times: Vec::with_capacity(FLUSH_EVERY),
             last_time: 0.0,
-            deferred_error: None,
         })
+    }
+
+    /// Where the run is being written until [`Recorder::finish`] renames it onto its path: what a
+    /// killed run leaves behind, for [`salvage`].
+    pub fn part_path(&self) -> &Path {
+        &self.part_path
     }
 
     /// Buffers one sample: step index, simulated time (s), every link's world pose (in the order of
@@ -259,9 +253,16 @@ impl Recorder {
     /// infinities included); missing ones are recorded as NaN, extra ones ignored. A missing or
     /// non-finite pose is left out, so the link stays drawn at its last finite pose. A non-finite
     /// time is replaced by the last finite one.
-    pub fn push(&mut self, step: i64, time: f64, link_poses: &[Pose2], values: &[f64]) {
-        debug_assert_eq!(link_poses.len(), self.links.len(), "one pose per link");
-        debug_assert_eq!(values.len(), self.width, "one value per signal");
+    ///
+    /// Fails once a write to the file has failed (with the OS's reason): the run should stop, as
+    /// the rest of it could not be recorded.
+    pub fn push(
+        &mut self,
+        step: i64,
+        time: f64,
+        link_poses: &[Pose2],
+        values: &[f64],
+    ) -> Result<(), RecordingError> {
         if time.is_finite() {
             self.last_time = time;
         }
@@ -291,69 +292,110 @@ impl Recorder {
             offset = end;
         }
         if self.steps.len() >= FLUSH_EVERY {
-            if let Err(reason) = self.send_buffered() {
-                self.deferred_error.get_or_insert(reason);
-            }
+            self.send_buffered()
+                .map_err(|reason| self.write_error(reason))?;
+            self.pace()?;
         }
+        self.check()
     }
 
-    /// Logs an event to the text log `events` at that step and time.
-    pub fn event(&mut self, step: i64, time: f64, level: EventLevel, text: &str) {
+    /// Marks the end of the buffer just sent with a flush of the pipeline, and waits for the file
+    /// to have been written up to the previous buffer. The file thus stays at most one buffer
+    /// behind the run (rather than all the data Rerun lets queue up), so that a failed write is
+    /// reported at the latest at the next buffer; writing the current buffer still overlaps with
+    /// the run.
+    fn pace(&mut self) -> Result<(), RecordingError> {
+        if let Some(stream) = &self.stream {
+            stream
+                .flush_async()
+                .map_err(|err| self.write_error(error_chain(&err)))?;
+            self.flushes += 1;
+            self.file.wait_for_flush(self.flushes - 1);
+        }
+        Ok(())
+    }
+
+    /// Logs an event to the text log `events` at that step and time. Fails, like
+    /// [`Recorder::push`], once a write to the file has failed.
+    pub fn event(
+        &mut self,
+        step: i64,
+        time: f64,
+        level: EventLevel,
+        text: &str,
+    ) -> Result<(), RecordingError> {
         let Some(stream) = &self.stream else {
-            return;
+            return Ok(());
         };
         let level = match level {
             EventLevel::Info => TextLogLevel::INFO,
             EventLevel::Warning => TextLogLevel::WARN,
             EventLevel::Error => TextLogLevel::ERROR,
         };
-        let result = TextLog::new(text)
+        let time = if time.is_finite() {
+            time
+        } else {
+            self.last_time
+        };
+        TextLog::new(text)
             .with_level(level)
             .columns_of_unit_batches()
             .map_err(|err| error_chain(&err))
             .and_then(|columns| {
-                let time = if time.is_finite() {
-                    time
-                } else {
-                    self.last_time
-                };
                 stream
                     .send_columns(EVENTS, timeline_columns(&[step], &[time]), columns)
                     .map_err(|err| error_chain(&err))
-            });
-        if let Err(reason) = result {
-            self.deferred_error.get_or_insert(reason);
-        }
+            })
+            .map_err(|reason| self.write_error(reason))?;
+        self.check()
     }
 
-    /// Sends the buffered samples, then closes the file so that its footer is written.
-    pub fn finish(mut self) -> Result<(), RecordingError> {
-        self.close()
-    }
-
-    /// Sends what is buffered, flushes and drops the stream (which writes the footer). Idempotent.
-    fn close(&mut self) -> Result<(), RecordingError> {
-        if self.stream.is_none() {
-            return Ok(());
-        }
+    /// Sends what is buffered, drains Rerun's pipeline into the file, writes the footer and renames
+    /// the file onto its path (replacing what is there: when runs record the same path, the last
+    /// to finish wins). Then waits for the live viewer, if any, at most
+    /// [`live::LIVE_FINISH_TIMEOUT`] (5 s); its failure is a warning in the outcome. On error the
+    /// temporary file is removed and nothing is written at the path.
+    pub fn finish(mut self) -> Result<RecordingOutcome, RecordingError> {
         let sent = self.send_buffered();
-        let stream = self.stream.take().expect("checked above");
-        let flushed = stream.flush_blocking().map_err(|err| error_chain(&err));
-        // The last handle: dropping it joins the writer thread, which writes the footer.
-        drop(stream);
-        let write_error = |reason: String| RecordingError::Write {
+        // The last handle: dropping it sends everything pending through the sink and joins
+        // Rerun's threads, so the file holds every message afterwards.
+        drop(self.stream.take());
+        let part = self.file.take();
+        let live = self.live.take();
+        let written = sent.and_then(|()| match self.file.failure() {
+            Some(reason) => Err(reason.to_owned()),
+            None => Ok(()),
+        });
+        let bytes = match (written, part) {
+            (Ok(()), Some(part)) => part.complete(&self.path),
+            (Ok(()), None) => Err("the file was closed early".to_owned()),
+            (Err(reason), part) => {
+                if let Some(part) = part {
+                    part.discard();
+                }
+                Err(reason)
+            }
+        }
+        .map_err(|reason| self.write_error(reason))?;
+        Ok(RecordingOutcome {
+            path: self.path.clone(),
+            bytes,
+            live_warning: live.and_then(LiveHandle::finish),
+        })
+    }
+
+    /// The first failed write to the file, as an error naming the recording.
+    fn check(&self) -> Result<(), RecordingError> {
+        match self.file.failure() {
+            Some(reason) => Err(self.write_error(reason.to_owned())),
+            None => Ok(()),
+        }
+    }
+
+    fn write_error(&self, reason: String) -> RecordingError {
+        RecordingError::Write {
             path: self.path.clone(),
             reason,
-        };
-        if let Some(reason) = self.deferred_error.take() {
-            return Err(write_error(reason));
-        }
-        sent.map_err(write_error)?;
-        flushed.map_err(write_error)?;
-        match std::fs::metadata(&self.path) {
-            Ok(meta) if meta.len() > 0 => Ok(()),
-            Ok(_) => Err(write_error("the file is empty".to_owned())),
-            Err(err) => Err(write_error(err.to_string())),
         }
     }
 
@@ -432,11 +474,79 @@ impl Recorder {
 }
 
 impl Drop for Recorder {
-    /// A recorder dropped without [`Recorder::finish`] (an error path) still sends what it buffered
-    /// and closes the file; errors can only be ignored here.
+    /// A recorder dropped without [`Recorder::finish`] (an error or a panic) leaves no file: the
+    /// temporary one is removed, and nothing more is written to it.
     fn drop(&mut self) {
-        let _ = self.close();
+        let part = self.file.take();
+        drop(self.stream.take());
+        if let Some(part) = part {
+            part.discard();
+        }
     }
+}
+
+/// The empty sample buffers of the layout's links and series groups.
+fn buffers(layout: &RecordingLayout) -> (Vec<LinkPoses>, Vec<Group>) {
+    let links = layout
+        .links
+        .iter()
+        .map(|(name, _)| LinkPoses {
+            entity: EntityPath::new(vec![
+                EntityPathPart::new(MECHANISM),
+                EntityPathPart::new(name.as_str()),
+            ]),
+            translations: Vec::with_capacity(3 * FLUSH_EVERY),
+            angles: Vec::with_capacity(FLUSH_EVERY),
+            all_finite: true,
+        })
+        .collect();
+    let groups = layout
+        .series
+        .iter()
+        .map(|group| Group {
+            entity: EntityPath::from(format!("{SIGNALS}/{}", group.path.trim_matches('/'))),
+            width: group.names.len(),
+            values: Vec::with_capacity(FLUSH_EVERY * group.names.len()),
+        })
+        .collect();
+    (links, groups)
+}
+
+/// Logs the static parts of the recording: the y-up root transform, the link shapes, the scenario
+/// text and the series names.
+fn log_layout(
+    stream: &RecordingStream,
+    layout: &RecordingLayout,
+    links: &[LinkPoses],
+    groups: &[Group],
+) -> Result<(), String> {
+    let log_static = |entity: &EntityPath, archetype: &dyn rerun::AsComponents| {
+        stream
+            .log_static(entity.clone(), archetype)
+            .map_err(|err| error_chain(&err))
+    };
+    log_static(
+        &EntityPath::from(MECHANISM),
+        &Transform3D::from_scale([1.0, -1.0, 1.0]),
+    )?;
+    for (index, ((_, shapes), link)) in layout.links.iter().zip(links).enumerate() {
+        if let Some(strips) = link_strips(shapes, PALETTE[index % PALETTE.len()]) {
+            log_static(&link.entity, &strips)?;
+        }
+    }
+    log_static(
+        &EntityPath::from(SCENARIO),
+        &TextDocument::new(layout.scenario_toml.as_str()).with_media_type(MediaType::plain_text()),
+    )?;
+    for (group, series) in groups.iter().zip(&layout.series) {
+        if group.width > 0 {
+            log_static(
+                &group.entity,
+                &SeriesLines::new().with_names(series.names.iter().map(String::as_str)),
+            )?;
+        }
+    }
+    Ok(())
 }
 
 fn timeline_columns(steps: &[i64], times: &[f64]) -> [TimeColumn; 2] {
@@ -580,22 +690,6 @@ fn error_chain(err: &dyn std::error::Error) -> String {
         source = cause.source();
     }
     message
-}
-
-/// The gRPC sink of a live viewer: the given URL, or a viewer spawned from PATH.
-fn grpc_sink(live: &LiveViewer) -> Result<rerun::sink::GrpcSink, String> {
-    let url = match live {
-        LiveViewer::Connect(url) => url.clone(),
-        LiveViewer::Spawn => {
-            let viewer = rerun::spawn(&rerun::SpawnOptions::default())
-                .map_err(|e| format!("cannot start a Rerun viewer: {e}"))?;
-            format!("rerun+http://127.0.0.1:{}/proxy", viewer.port)
-        }
-    };
-    let uri = url
-        .parse()
-        .map_err(|e| format!("bad viewer URL `{url}`: {e}"))?;
-    Ok(rerun::sink::GrpcSink::new(uri))
 }
 
 #[cfg(test)]

@@ -1,5 +1,8 @@
 use super::*;
-use std::time::Instant;
+use std::sync::{Arc, Barrier};
+use std::time::{Duration, Instant};
+
+use rerun::external::re_log_encoding::{CrateVersion, DecoderApp, Encoder, EncodingOptions};
 
 fn scratch_dir(name: &str) -> PathBuf {
     let dir = std::env::temp_dir().join(format!("twin-recording-{}-{name}", std::process::id()));
@@ -15,6 +18,22 @@ fn cleanup(dir: &Path) {
     } else {
         eprintln!("kept {}", dir.display());
     }
+}
+
+/// The names of the files in a folder, sorted.
+fn files_in(dir: &Path) -> Vec<String> {
+    let mut names: Vec<String> = std::fs::read_dir(dir)
+        .expect("read dir")
+        .map(|entry| {
+            entry
+                .expect("dir entry")
+                .file_name()
+                .to_string_lossy()
+                .into_owned()
+        })
+        .collect();
+    names.sort();
+    names
 }
 
 fn layout(links: usize, groups: &[(&str, usize)]) -> RecordingLayout {
@@ -101,15 +120,24 @@ fn records_samples_and_events_to_a_valid_file() {
     let mut rec = Recorder::create(&path, &layout).expect("create");
     for step in 0..5000 {
         let t = step as f64 * 1e-3;
-        rec.push(step, t, &poses(2, t), &[t.sin(), t.cos(), 2.0 * t]);
+        rec.push(step, t, &poses(2, t), &[t.sin(), t.cos(), 2.0 * t])
+            .expect("push");
         if step == 2500 {
-            rec.event(step, t, EventLevel::Warning, "effort saturated");
+            rec.event(step, t, EventLevel::Warning, "effort saturated")
+                .expect("event");
         }
     }
-    rec.event(4999, 4.999, EventLevel::Info, "done");
-    rec.finish().expect("finish");
+    rec.event(4999, 4.999, EventLevel::Info, "done")
+        .expect("event");
+    let part = rec.part_path().to_path_buf();
+    assert!(part.exists(), "written under a temporary name first");
+    let outcome = rec.finish().expect("finish");
+    assert_eq!(outcome.path, path);
+    assert_eq!(outcome.live_warning, None);
     let len = std::fs::metadata(&path).expect("file exists").len();
-    assert!(len > 0);
+    assert_eq!(len, outcome.bytes);
+    assert!(!part.exists(), "the temporary file is renamed");
+    assert_eq!(files_in(&dir), ["run.rrd"]);
     verify(&path);
     cleanup(&dir);
 }
@@ -127,27 +155,31 @@ fn non_finite_values_and_poses_are_recorded() {
         } else {
             (f64::NAN, vec![Pose2::new(f64::INFINITY, f64::NAN, 1e300)])
         };
-        rec.push(step, t, &pose, &[value, f64::NEG_INFINITY]);
+        rec.push(step, t, &pose, &[value, f64::NEG_INFINITY])
+            .expect("push");
     }
-    rec.event(3000, 3.0, EventLevel::Error, "diverged");
+    rec.event(3000, f64::NAN, EventLevel::Error, "diverged")
+        .expect("event");
     rec.finish().expect("finish");
     verify(&path);
     cleanup(&dir);
 }
 
 #[test]
-fn dropping_without_finish_still_closes_the_file() {
+fn dropping_without_finish_leaves_no_file() {
     let dir = scratch_dir("dropped");
     let path = dir.join("run.rrd");
-    {
-        let mut rec = Recorder::create(&path, &layout(2, &[("process", 3)])).expect("create");
-        for step in 0..1234 {
-            let t = step as f64 * 1e-3;
-            rec.push(step, t, &poses(2, t), &[1.0, 2.0, 3.0]);
-        }
+    let mut rec = Recorder::create(&path, &layout(2, &[("process", 3)])).expect("create");
+    for step in 0..(FLUSH_EVERY as i64 + 1234) {
+        let t = step as f64 * 1e-3;
+        rec.push(step, t, &poses(2, t), &[1.0, 2.0, 3.0])
+            .expect("push");
     }
-    assert!(std::fs::metadata(&path).expect("file exists").len() > 0);
-    verify(&path);
+    let part = rec.part_path().to_path_buf();
+    assert!(part.exists());
+    drop(rec);
+    assert!(!part.exists() && !path.exists());
+    assert!(files_in(&dir).is_empty(), "{:?}", files_in(&dir));
     cleanup(&dir);
 }
 
@@ -185,6 +217,61 @@ fn create_over_a_directory_names_the_path() {
         matches!(&err, RecordingError::Create { path, .. } if path == &dir),
         "{err:?}"
     );
+    assert!(
+        err.to_string().contains(&dir.display().to_string()),
+        "{err}"
+    );
+    eprintln!("{err}");
+    assert!(
+        files_in(&dir).is_empty(),
+        "nothing is left in the directory"
+    );
+    cleanup(&dir);
+}
+
+/// Whether this process can create a file in `dir` (root can in a folder without write permission).
+fn can_write_in(dir: &Path) -> bool {
+    let probe = dir.join(".twin-write-probe");
+    let created = std::fs::OpenOptions::new()
+        .write(true)
+        .create_new(true)
+        .open(&probe)
+        .is_ok();
+    if created {
+        std::fs::remove_file(&probe).ok();
+    }
+    created
+}
+
+#[test]
+fn create_in_an_unwritable_folder_names_the_path() {
+    use std::os::unix::fs::PermissionsExt;
+    let dir = scratch_dir("unwritable");
+    let locked = dir.join("locked");
+    std::fs::create_dir(&locked).expect("mkdir");
+    std::fs::set_permissions(&locked, std::fs::Permissions::from_mode(0o555)).expect("chmod");
+    // As root, permissions do not stop writes: sysfs, where no file can be created, stands in.
+    let folder = if can_write_in(&locked) {
+        PathBuf::from("/sys")
+    } else {
+        locked.clone()
+    };
+    assert!(!can_write_in(&folder), "no unwritable folder to test with");
+    let path = folder.join("run.rrd");
+    let err = match Recorder::create(&path, &layout(1, &[("task", 1)])) {
+        Ok(_) => panic!("created a recording in an unwritable folder"),
+        Err(err) => err,
+    };
+    assert!(
+        matches!(&err, RecordingError::Create { path: p, .. } if p == &path),
+        "{err:?}"
+    );
+    assert!(
+        err.to_string().contains(&path.display().to_string()),
+        "{err}"
+    );
+    eprintln!("{err}");
+    std::fs::set_permissions(&locked, std::fs::Permissions::from_mode(0o755)).expect("chmod");
     cleanup(&dir);
 }
 
@@ -197,9 +284,10 @@ fn an_empty_layout_records_a_valid_file() {
     layout.scenario_toml = String::new();
     let mut rec = Recorder::create(&path, &layout).expect("create");
     for step in 0..10 {
-        rec.push(step, step as f64, &[], &[]);
+        rec.push(step, step as f64, &[], &[]).expect("push");
     }
-    rec.event(3, 3.0, EventLevel::Info, "nothing happens");
+    rec.event(3, 3.0, EventLevel::Info, "nothing happens")
+        .expect("event");
     rec.finish().expect("finish");
     verify(&path);
     cleanup(&dir);
@@ -238,18 +326,7 @@ fn sixty_thousand_samples_are_cheap() {
     const SAMPLES: i64 = 60_000;
     let dir = scratch_dir("throughput");
     let path = dir.join("run.rrd");
-    let layout = layout(
-        5,
-        &[
-            ("joints/position", 6),
-            ("joints/velocity", 6),
-            ("effort/commanded", 4),
-            ("effort/applied", 4),
-            ("task", 4),
-            ("controller", 4),
-            ("process", 2),
-        ],
-    );
+    let layout = layout(5, &THIRTY_SIGNALS);
     // Inputs are computed beforehand so that only the recorder is timed.
     let inputs: Vec<(Vec<Pose2>, Vec<f64>)> = (0..SAMPLES)
         .map(|step| {
@@ -269,7 +346,8 @@ fn sixty_thousand_samples_are_cheap() {
     let pushing = Instant::now();
     let push_cpu_start = thread_cpu_ns();
     for (step, (link_poses, values)) in inputs.iter().enumerate() {
-        rec.push(step as i64, step as f64 * 1e-3, link_poses, values);
+        rec.push(step as i64, step as f64 * 1e-3, link_poses, values)
+            .expect("push");
     }
     let pushed = pushing.elapsed();
     let push_cpu = push_cpu_start
@@ -341,4 +419,444 @@ fn angles_are_wrapped_and_application_ids_sanitized() {
     assert_eq!(application_id("slider crank").as_str(), "slider crank");
     assert_eq!(application_id("v1.2/run").as_str(), "v1-2-run");
     assert_eq!(application_id("").as_str(), "twin");
+}
+
+/// Records `samples` samples of a 2-link, 3-signal layout at 1 kHz to `path`.
+fn record(path: &Path, samples: i64) -> RecordingOutcome {
+    let mut rec = Recorder::create(path, &layout(2, &[("task", 3)])).expect("create");
+    for step in 0..samples {
+        let t = step as f64 * 1e-3;
+        rec.push(step, t, &poses(2, t), &[t, t.sin(), t.cos()])
+            .expect("push");
+    }
+    rec.finish().expect("finish")
+}
+
+#[test]
+fn concurrent_recorders_of_one_path_leave_one_complete_file() {
+    let dir = scratch_dir("concurrent");
+    let path = dir.join("run.rrd");
+    let start = Arc::new(Barrier::new(2));
+    let run = |samples: i64| {
+        let (path, start) = (path.clone(), start.clone());
+        std::thread::spawn(move || {
+            let mut rec = Recorder::create(&path, &layout(2, &[("task", 3)])).expect("create");
+            start.wait();
+            for step in 0..samples {
+                let t = step as f64 * 1e-3;
+                rec.push(step, t, &poses(2, t), &[t, t.sin(), t.cos()])
+                    .expect("push");
+            }
+            (samples, rec.finish().expect("finish"))
+        })
+    };
+    let runs = [run(7000), run(9000)].map(|run| run.join().expect("recording thread"));
+    verify(&path);
+    let len = std::fs::metadata(&path).expect("file").len();
+    let check = dir.join("check.rrd");
+    let report = salvage(&path, &check).expect("read back");
+    let winner = runs
+        .iter()
+        .find(|(samples, outcome)| report.last_step == Some(samples - 1) && outcome.bytes == len)
+        .unwrap_or_else(|| panic!("the file ({len} bytes, {report:?}) is neither of {runs:?}"));
+    eprintln!("the run of {} samples finished last", winner.0);
+    assert_eq!(files_in(&dir), ["check.rrd", "run.rrd"]);
+    cleanup(&dir);
+}
+
+/// The environment variable handing a child test process its scratch folder.
+const CHILD_DIR: &str = "TWIN_RECORDING_CHILD_DIR";
+
+/// Runs the ignored test `name` of this test binary in a child process, after the shell commands
+/// `prelude`, with its scratch folder `dir`.
+fn run_child(name: &str, prelude: &str, dir: &Path) -> std::process::Output {
+    let exe = std::env::current_exe().expect("test binary");
+    let out = std::process::Command::new("sh")
+        .arg("-c")
+        .arg(format!(
+            "{prelude}; exec \"$0\" --exact \"$1\" --ignored --nocapture --test-threads=1"
+        ))
+        .arg(exe)
+        .arg(format!("recording::tests::{name}"))
+        .env(CHILD_DIR, dir)
+        .output()
+        .expect("run the child test");
+    eprintln!(
+        "child {name}: {}\n{}\n{}",
+        out.status,
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    out
+}
+
+/// The 30 signals and 5 links of the throughput test.
+const THIRTY_SIGNALS: [(&str, usize); 7] = [
+    ("joints/position", 6),
+    ("joints/velocity", 6),
+    ("effort/commanded", 4),
+    ("effort/applied", 4),
+    ("task", 4),
+    ("controller", 4),
+    ("process", 2),
+];
+
+/// A file size limit (`ulimit -f`, with SIGXFSZ ignored so that writes fail with EFBIG rather
+/// than kill the process) stands in for a full disk: the push after the failed write fails, with
+/// the OS's reason, and no file is left.
+#[test]
+fn a_failed_write_stops_the_run_with_the_os_reason() {
+    let dir = scratch_dir("write-failure");
+    // dash counts 512-byte blocks: 2 MiB.
+    let out = run_child("write_failure_child", "trap '' XFSZ; ulimit -f 4096", &dir);
+    assert!(out.status.success(), "the child failed");
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(stdout.contains("File too large"), "{stdout}");
+    assert!(files_in(&dir).is_empty(), "{:?}", files_in(&dir));
+    cleanup(&dir);
+}
+
+#[test]
+#[ignore = "run by a_failed_write_stops_the_run_with_the_os_reason in a child process"]
+fn write_failure_child() {
+    let Some(dir) = std::env::var_os(CHILD_DIR).map(PathBuf::from) else {
+        eprintln!("only meaningful as a child of a_failed_write_stops_the_run_with_the_os_reason");
+        return;
+    };
+    let path = dir.join("run.rrd");
+    let mut rec = Recorder::create(&path, &layout(5, &THIRTY_SIGNALS)).expect("create");
+    let part = rec.part_path().to_path_buf();
+    // Noise, so that compression does not shrink it.
+    let mut state = 0x9e37_79b9_7f4a_7c15_u64;
+    let mut noise = move || {
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        state as f64 / u64::MAX as f64
+    };
+    let failure = (0..1_000_000).find_map(|step| {
+        let t = step as f64 * 1e-3;
+        let values: Vec<f64> = (0..30).map(|_| noise()).collect();
+        rec.push(step, t, &poses(5, t), &values)
+            .err()
+            .map(|err| (step, err))
+    });
+    let (step, err) = failure.expect("a push fails past the size limit");
+    println!("push {step} failed: {err}");
+    assert!(matches!(&err, RecordingError::Write { path: p, .. } if p == &path));
+    assert!(err.to_string().contains(&path.display().to_string()));
+    // The first buffer (~0.5 kB per sample in the file) already passes 2 MiB: its failure is
+    // reported at the latest by the push sending the second.
+    assert!(
+        step <= 2 * FLUSH_EVERY as i64,
+        "found only at sample {step}"
+    );
+    assert!(
+        rec.push(step + 1, 0.0, &[], &[]).is_err(),
+        "the failure stays"
+    );
+    assert!(rec.finish().is_err(), "a failed recording cannot finish");
+    assert!(!part.exists() && !path.exists());
+}
+
+#[test]
+fn an_unreachable_live_viewer_costs_neither_the_file_nor_time() {
+    let dir = scratch_dir("live-unreachable");
+    let path = dir.join("run.rrd");
+    // A port that was free a moment ago: nothing listens there.
+    let port = std::net::TcpListener::bind("127.0.0.1:0")
+        .and_then(|listener| listener.local_addr())
+        .expect("a free port")
+        .port();
+    let mut layout = layout(5, &THIRTY_SIGNALS);
+    layout.live = Some(LiveViewer::Connect(format!(
+        "rerun+http://127.0.0.1:{port}/proxy"
+    )));
+    let mut rec = Recorder::create(&path, &layout).expect("create");
+    let pushing = Instant::now();
+    // Enough chunks to fill the viewer's queues: the feeder blocks, the run must not.
+    for step in 0..100_000 {
+        let t = step as f64 * 1e-3;
+        let values: Vec<f64> = (0..30).map(|k| (t * k as f64).sin()).collect();
+        rec.push(step, t, &poses(5, t), &values).expect("push");
+    }
+    let pushed = pushing.elapsed();
+    let finishing = Instant::now();
+    let outcome = rec
+        .finish()
+        .expect("the file does not depend on the viewer");
+    let finished = finishing.elapsed();
+    eprintln!(
+        "push {pushed:?}, finish {finished:?}: {:?}",
+        outcome.live_warning
+    );
+    let warning = outcome.live_warning.expect("a warning about the viewer");
+    assert!(warning.contains(&format!("127.0.0.1:{port}")), "{warning}");
+    assert!(
+        finished < live::LIVE_FINISH_TIMEOUT + Duration::from_secs(3),
+        "finish took {finished:?}"
+    );
+    verify(&path);
+    cleanup(&dir);
+}
+
+/// The messages of a complete recording re-encoded without footer (nor end marker): what a
+/// recorder's file holds while the run goes on.
+fn without_footer(complete: &[u8]) -> Vec<u8> {
+    let mut encoder = Encoder::new_eager(
+        CrateVersion::LOCAL,
+        EncodingOptions::PROTOBUF_COMPRESSED,
+        Vec::new(),
+    )
+    .expect("encoder");
+    encoder.do_not_emit_footer();
+    for msg in DecoderApp::decode_lazy(complete) {
+        encoder.append(&msg.expect("decode")).expect("encode");
+    }
+    encoder.into_inner().expect("bytes")
+}
+
+/// Salvages `bytes` (written to `<name>.part`) to `<name>.rrd`, checks the result and returns
+/// the report.
+fn salvage_bytes(dir: &Path, name: &str, bytes: &[u8]) -> Result<SalvageReport, RecordingError> {
+    let part = dir.join(format!("{name}.part"));
+    let out = dir.join(format!("{name}.rrd"));
+    std::fs::write(&part, bytes).expect("write");
+    let report = salvage(&part, &out)?;
+    eprintln!("{name}: {} bytes -> {report:?}", bytes.len());
+    verify(&out);
+    // Samples are at 1 kHz: the largest time goes with the last step.
+    let step_time = report.last_step.map(|step| step as f64 * 1e-3);
+    assert!(
+        match (step_time, report.last_sim_time) {
+            (Some(a), Some(b)) => (a - b).abs() < 1e-9,
+            (a, b) => a.is_none() && b.is_none(),
+        },
+        "{report:?}"
+    );
+    Ok(report)
+}
+
+#[test]
+fn salvage_completes_truncated_recordings() {
+    let dir = scratch_dir("salvage");
+    let full = dir.join("full.rrd");
+    record(&full, 10_000);
+    let complete = std::fs::read(&full).expect("read");
+
+    let whole = salvage_bytes(&dir, "whole", &complete).expect("a complete file");
+    assert!(whole.had_footer && whole.dropped_bytes == 0, "{whole:?}");
+    assert_eq!(whole.last_step, Some(9999));
+
+    let raw = without_footer(&complete);
+    let unfinished = salvage_bytes(&dir, "raw", &raw).expect("a stream without footer");
+    assert!(!unfinished.had_footer && unfinished.dropped_bytes == 0);
+    assert_eq!(unfinished.last_step, Some(9999));
+    assert_eq!(unfinished.messages, whole.messages);
+
+    // The complete file less part of its footer: every message is kept.
+    let footless =
+        salvage_bytes(&dir, "footless", &complete[..complete.len() - 10]).expect("a torn footer");
+    assert_eq!(
+        (footless.messages, footless.last_step),
+        (whole.messages, Some(9999))
+    );
+
+    // The stream torn inside its last message, and further back.
+    let torn = salvage_bytes(&dir, "torn", &raw[..raw.len() - 1]).expect("a torn message");
+    assert_eq!(torn.messages, whole.messages - 1);
+    assert!(torn.dropped_bytes > 0);
+    let mut previous = torn.clone();
+    for fraction in [0.75, 0.5, 0.25] {
+        let cut = (raw.len() as f64 * fraction) as usize;
+        let report = salvage_bytes(&dir, &format!("cut{cut}"), &raw[..cut]).expect("a cut stream");
+        assert!(report.messages < previous.messages, "{report:?}");
+        assert!(report.last_step <= previous.last_step, "{report:?}");
+        assert!(report.dropped_bytes > 0 && report.dropped_bytes < cut as u64);
+        previous = report;
+    }
+
+    // Not even a whole stream header.
+    let err = salvage_bytes(&dir, "header", &raw[..8]).expect_err("nothing to salvage");
+    assert!(matches!(err, RecordingError::Read { .. }), "{err}");
+    cleanup(&dir);
+}
+
+#[test]
+fn salvage_rejects_a_file_that_is_not_a_recording() {
+    let dir = scratch_dir("salvage-not-rrd");
+    let part = dir.join("notes.txt");
+    std::fs::write(&part, "name = \"not a recording\"\n[run]\nduration = 1.0\n").expect("write");
+    let out = dir.join("out.rrd");
+    let err = salvage(&part, &out).expect_err("not a recording");
+    assert!(
+        matches!(&err, RecordingError::Read { path, .. } if path == &part),
+        "{err:?}"
+    );
+    assert!(
+        err.to_string().contains(&part.display().to_string()),
+        "{err}"
+    );
+    eprintln!("{err}");
+    assert_eq!(files_in(&dir), ["notes.txt"]);
+    let missing = salvage(&dir.join("missing.part"), &out).expect_err("no such file");
+    assert!(matches!(missing, RecordingError::Read { .. }), "{missing}");
+    cleanup(&dir);
+}
+
+/// A run killed outright leaves its temporary file, without footer; salvage makes a complete
+/// recording of everything that reached it.
+#[test]
+fn salvage_recovers_what_an_aborted_run_left() {
+    let dir = scratch_dir("aborted");
+    let out = run_child("aborted_run_child", "ulimit -c 0", &dir);
+    assert!(!out.status.success(), "the child aborts");
+    let parts: Vec<String> = files_in(&dir);
+    assert_eq!(parts.len(), 1, "{parts:?}");
+    assert!(
+        parts[0].starts_with("run.rrd.") && parts[0].ends_with(".part"),
+        "{parts:?}"
+    );
+    let part = dir.join(&parts[0]);
+    let salvaged = dir.join("run.rrd");
+    let report = salvage(&part, &salvaged).expect("salvage");
+    eprintln!("{report:?}");
+    verify(&salvaged);
+    // 10 000 samples pushed: two buffers of FLUSH_EVERY were sent, the rest was still buffered.
+    let sent = 2 * FLUSH_EVERY as i64;
+    assert_eq!(report.last_step, Some(sent - 1));
+    assert!((report.last_sim_time.expect("times") - (sent - 1) as f64 * 1e-3).abs() < 1e-9);
+    assert!(!report.had_footer);
+    assert_eq!(report.dropped_bytes, 0);
+    cleanup(&dir);
+}
+
+#[test]
+#[ignore = "run by salvage_recovers_what_an_aborted_run_left in a child process"]
+fn aborted_run_child() {
+    let Some(dir) = std::env::var_os(CHILD_DIR).map(PathBuf::from) else {
+        eprintln!("only meaningful as a child of salvage_recovers_what_an_aborted_run_left");
+        return;
+    };
+    let mut rec =
+        Recorder::create(&dir.join("run.rrd"), &layout(2, &[("task", 3)])).expect("create");
+    for step in 0..10_000 {
+        let t = step as f64 * 1e-3;
+        rec.push(step, t, &poses(2, t), &[t, t.sin(), t.cos()])
+            .expect("push");
+    }
+    // What was sent reaches the file, as it would have by the time of a kill.
+    rec.stream
+        .as_ref()
+        .expect("open")
+        .flush_blocking()
+        .expect("flush");
+    std::process::abort();
+}
+
+/// A Rerun gRPC server (`rerun --serve-grpc`, the proxy a viewer listens through) on a free port;
+/// killed when dropped.
+struct GrpcServer {
+    child: std::process::Child,
+    url: String,
+}
+
+impl GrpcServer {
+    fn start() -> GrpcServer {
+        use std::os::unix::process::CommandExt;
+        let port = std::net::TcpListener::bind("127.0.0.1:0")
+            .and_then(|listener| listener.local_addr())
+            .expect("a free port")
+            .port();
+        // A process group of its own: the `rerun` of a Python install is a wrapper that starts
+        // the real server as its child, and both must go.
+        let child = std::process::Command::new(rerun_cli())
+            .args(["--serve-grpc", "--port", &port.to_string()])
+            .stdout(std::process::Stdio::null())
+            .stderr(std::process::Stdio::null())
+            .process_group(0)
+            .spawn()
+            .expect("start rerun --serve-grpc");
+        let server = GrpcServer {
+            child,
+            url: format!("rerun+http://127.0.0.1:{port}/proxy"),
+        };
+        let started = Instant::now();
+        while std::net::TcpStream::connect(("127.0.0.1", port)).is_err() {
+            assert!(started.elapsed() < Duration::from_secs(30), "no server");
+            std::thread::sleep(Duration::from_millis(50));
+        }
+        server
+    }
+}
+
+impl Drop for GrpcServer {
+    fn drop(&mut self) {
+        std::process::Command::new("kill")
+            .args(["-KILL", "--", &format!("-{}", self.child.id())])
+            .status()
+            .ok();
+        self.child.wait().ok();
+    }
+}
+
+/// A listening viewer gets the whole run (no warning); one that goes away mid-run costs neither
+/// the file nor the run.
+#[test]
+fn a_live_viewer_gets_the_run_and_losing_it_costs_nothing() {
+    let dir = scratch_dir("live");
+    let run = |path: &Path, url: &str, mut halfway: Box<dyn FnMut()>| {
+        let mut layout = layout(2, &[("task", 3)]);
+        layout.live = Some(LiveViewer::Connect(url.to_owned()));
+        let mut rec = Recorder::create(path, &layout).expect("create");
+        for step in 0..20_000 {
+            let t = step as f64 * 1e-3;
+            if step == 10_000 {
+                halfway();
+            }
+            rec.push(step, t, &poses(2, t), &[t, t.sin(), t.cos()])
+                .expect("push");
+        }
+        let finishing = Instant::now();
+        let outcome = rec.finish().expect("finish");
+        eprintln!("finish {:?}: {outcome:?}", finishing.elapsed());
+        assert!(finishing.elapsed() < live::LIVE_FINISH_TIMEOUT + Duration::from_secs(3));
+        verify(path);
+        outcome
+    };
+    let server = GrpcServer::start();
+    let watched = run(&dir.join("watched.rrd"), &server.url, Box::new(|| {}));
+    assert_eq!(watched.live_warning, None);
+    let url = server.url.clone();
+    let mut server = Some(server);
+    let lost = run(
+        &dir.join("lost.rrd"),
+        &url,
+        Box::new(move || {
+            // Let the viewer take the first half, then stop it.
+            std::thread::sleep(Duration::from_millis(500));
+            drop(server.take());
+        }),
+    );
+    assert!(lost.live_warning.is_some_and(|w| w.contains(&url)));
+    cleanup(&dir);
+}
+
+#[test]
+fn a_bad_viewer_url_fails_at_create_and_leaves_no_file() {
+    let dir = scratch_dir("live-bad-url");
+    let path = dir.join("run.rrd");
+    let mut layout = layout(1, &[("task", 1)]);
+    layout.live = Some(LiveViewer::Connect("not a viewer url".to_owned()));
+    let err = match Recorder::create(&path, &layout) {
+        Ok(_) => panic!("created a recording for a bad viewer URL"),
+        Err(err) => err,
+    };
+    assert!(
+        matches!(&err, RecordingError::Create { path: p, .. } if p == &path),
+        "{err:?}"
+    );
+    eprintln!("{err}");
+    assert!(files_in(&dir).is_empty(), "{:?}", files_in(&dir));
+    cleanup(&dir);
 }

@@ -118,10 +118,12 @@ fn write_report(report: &Report, out_dir: &Path) -> Result<(), ReproduceError> {
         path: path.display().to_string(),
         reason: e.to_string(),
     })?;
-    std::fs::write(&path, text + "\n").map_err(|e| ReproduceError::Output {
-        path: path.display().to_string(),
-        reason: e.to_string(),
-    })
+    crate::output::OutputFile::create(&path)
+        .and_then(|file| file.commit((text + "\n").as_bytes()))
+        .map_err(|e| ReproduceError::Output {
+            path: e.path.display().to_string(),
+            reason: e.reason,
+        })
 }
 
 /// The claims as an aligned text table.
