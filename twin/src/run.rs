@@ -200,20 +200,7 @@ impl Twin {
                 ["reference", "reference_rate", "reference_acceleration"].map(String::from),
             );
         }
-        let mut actuators: Vec<Actuator> = actuated
-            .iter()
-            .map(|&j| {
-                let joint = &mechanism.joints[j];
-                Actuator {
-                    joint: joint.name.clone(),
-                    kind: match joint.motion {
-                        JointMotion::Prismatic { .. } => EffortKind::Force,
-                        _ => EffortKind::Torque,
-                    },
-                    effort_limit: joint.effort_limit.unwrap_or(f64::INFINITY),
-                }
-            })
-            .collect();
+        let mut actuators = joint_actuators(&mechanism, &actuated);
         actuators.extend(machine.extra_actuators());
         let plant = PlantInterface {
             machine: scenario.machine.clone(),
@@ -608,6 +595,24 @@ impl Digest {
             self.add(value);
         }
     }
+}
+
+/// An actuator per actuated tree joint: a force on a prismatic joint, else a torque.
+fn joint_actuators(mechanism: &Mechanism, actuated: &[usize]) -> Vec<Actuator> {
+    actuated
+        .iter()
+        .map(|&j| {
+            let joint = &mechanism.joints[j];
+            Actuator {
+                joint: joint.name.clone(),
+                kind: match joint.motion {
+                    JointMotion::Prismatic { .. } => EffortKind::Force,
+                    _ => EffortKind::Torque,
+                },
+                effort_limit: joint.effort_limit.unwrap_or(f64::INFINITY),
+            }
+        })
+        .collect()
 }
 
 /// The recording's step index (the run's step counts stay far below i64's range).
