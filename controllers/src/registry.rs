@@ -78,24 +78,16 @@ pub fn parse_params<P: DeserializeOwned>(
     })
 }
 
-/// Deserialises a table, with a one-line message that names the offending entry. Stricter than
+/// Deserialises a table, with a one-line message that names the offending key path. Stricter than
 /// TOML itself: every number must be finite (TOML allows `inf` and `nan`, no physical parameter
 /// does), and an array must have exactly the length its field takes (the TOML deserialiser would
 /// silently drop extra elements of a fixed-size array).
 pub fn from_table<P: DeserializeOwned>(table: &toml::Table) -> Result<P, String> {
     check_finite(table, &mut Vec::new())?;
-    // Through the value first: it checks array lengths and gives the key path of any error.
-    match serde_path_to_error::deserialize(toml::Value::Table(table.clone())) {
-        Ok(value) => Ok(value),
-        Err(error) => {
-            // Through text for a message that quotes the `key = value` line, where TOML has one.
-            let text = toml::to_string(table).map_err(|e| e.to_string())?;
-            match toml::from_str::<P>(&text) {
-                Err(e) => Err(describe_toml_error(&text, &e)),
-                Ok(_) => Err(describe_path_error(&error)),
-            }
-        }
-    }
+    // Through the value: it checks array lengths, and the error carries the key path. (Line
+    // numbers would be those of a re-serialised table, not of the user's file.)
+    serde_path_to_error::deserialize(toml::Value::Table(table.clone()))
+        .map_err(|error| describe_path_error(&error))
 }
 
 /// `key.path: message`, with serde's wording for a too-long array made plain.
@@ -108,7 +100,11 @@ fn describe_path_error(error: &serde_path_to_error::Error<toml::de::Error>) -> S
         }
         _ => message,
     };
-    format!("`{}`: {message}", error.path())
+    match error.path().to_string().as_str() {
+        // The table itself (a missing field): the message names the key.
+        "." => message,
+        path => format!("`{path}`: {message}"),
+    }
 }
 
 /// Rejects NaN and infinities anywhere in the table, naming the key.
@@ -140,6 +136,15 @@ fn check_finite_value(value: &toml::Value, path: &mut Vec<String>) -> Result<(),
     }
 }
 
+/// The first `chars` characters of `text`, with `…` when it was longer: long inputs quoted in a
+/// one-line message.
+pub fn shortened(text: &str, chars: usize) -> String {
+    match text.char_indices().nth(chars) {
+        Some((end, _)) => format!("{}…", &text[..end]),
+        None => text.to_string(),
+    }
+}
+
 /// A TOML error on one line: where it is (`line N: <that line>`) and what is wrong.
 pub fn describe_toml_error(text: &str, error: &toml::de::Error) -> String {
     let message = error.message().trim().replace('\n', " ");
@@ -148,10 +153,7 @@ pub fn describe_toml_error(text: &str, error: &toml::de::Error) -> String {
             let line_number = text[..span.start].matches('\n').count() + 1;
             let line = text.lines().nth(line_number - 1).unwrap_or("").trim();
             // A long line (a generated file, a hostile input) is quoted by its start only.
-            let line = match line.char_indices().nth(80) {
-                Some((end, _)) => format!("{}…", &line[..end]),
-                None => line.to_string(),
-            };
+            let line = shortened(line, 80);
             format!("line {line_number} (`{line}`): {message}")
         }
         _ => message,

@@ -21,28 +21,13 @@ pub struct OutputFile {
 }
 
 impl OutputFile {
-    /// Checks that `path` can be written (not a directory, its folder exists and takes a file)
-    /// by creating the temporary file now, before any long work.
+    /// Checks that `path` can be written (see [`temporary_beside`]) by creating the temporary
+    /// file now, before any long work.
     pub fn create(path: &Path) -> Result<Self, OutputError> {
-        let error = |reason: String| OutputError {
+        let temporary = temporary_beside(path).map_err(|reason| OutputError {
             path: path.to_path_buf(),
             reason,
-        };
-        if path.is_dir() {
-            return Err(error("it is a directory; name a file".into()));
-        }
-        let folder = folder_of(path);
-        if !folder.is_dir() {
-            return Err(error(format!("folder {} does not exist", folder.display())));
-        }
-        let name = path
-            .file_name()
-            .ok_or_else(|| error("no file name".into()))?;
-        let temporary = tempfile::Builder::new()
-            .prefix(&format!("{}.", name.to_string_lossy()))
-            .suffix(".part")
-            .tempfile_in(folder)
-            .map_err(|e| error(e.to_string()))?;
+        })?;
         Ok(Self {
             path: path.to_path_buf(),
             temporary,
@@ -71,6 +56,37 @@ impl OutputFile {
     }
 }
 
+/// Creates `<name>.<random>.part` in the folder of `path`: a unique name keeps concurrent writers
+/// of one path apart, and a name derived from the final one lets a user find what a killed run
+/// left. Fails, saying why, when `path` is a directory or its folder is missing or not writable.
+pub fn temporary_beside(path: &Path) -> Result<tempfile::NamedTempFile, String> {
+    if path.is_dir() {
+        return Err("it is a directory".to_owned());
+    }
+    let name = path
+        .file_name()
+        .ok_or_else(|| "it does not name a file".to_owned())?;
+    let folder = folder_of(path);
+    match std::fs::metadata(folder) {
+        Ok(meta) if meta.is_dir() => {}
+        Ok(_) => return Err(format!("{} is not a folder", folder.display())),
+        Err(err) if err.kind() == std::io::ErrorKind::NotFound => {
+            return Err(format!("its folder {} does not exist", folder.display()));
+        }
+        Err(err) => return Err(format!("its folder {}: {err}", folder.display())),
+    }
+    let mut prefix = name.to_owned();
+    prefix.push(".");
+    let mut builder = tempfile::Builder::new();
+    builder.prefix(&prefix).suffix(".part").rand_bytes(6);
+    // Like `File::create`: readable as the umask allows (tempfile's default is owner-only).
+    #[cfg(unix)]
+    builder.permissions(std::os::unix::fs::PermissionsExt::from_mode(0o666));
+    builder
+        .tempfile_in(folder)
+        .map_err(|err| format!("cannot create a file in {}: {err}", folder.display()))
+}
+
 /// The folder a relative or absolute file path lies in (`.` for a bare name).
 pub fn folder_of(path: &Path) -> &Path {
     match path.parent() {
@@ -88,5 +104,74 @@ pub fn same_file(a: &Path, b: &Path) -> bool {
     match (resolve(a), resolve(b)) {
         (Some(a), Some(b)) => a == b,
         _ => a == b,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn scratch(name: &str) -> PathBuf {
+        let dir = std::env::temp_dir().join(format!("twin-output-{}-{name}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        dir
+    }
+
+    fn entries(dir: &Path) -> Vec<String> {
+        let mut names: Vec<String> = std::fs::read_dir(dir)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        names.sort();
+        names
+    }
+
+    #[test]
+    fn a_file_appears_whole_only_on_commit() {
+        let dir = scratch("commit");
+        let path = dir.join("s.json");
+        let file = OutputFile::create(&path).unwrap();
+        let pending = entries(&dir);
+        assert_eq!(pending.len(), 1);
+        assert!(pending[0].starts_with("s.json.") && pending[0].ends_with(".part"));
+        file.commit(b"{}\n").unwrap();
+        assert_eq!(entries(&dir), ["s.json"]);
+        assert_eq!(std::fs::read(&path).unwrap(), b"{}\n");
+        // Readable by others as the umask allows, like any file the user writes.
+        #[cfg(unix)]
+        {
+            use std::os::unix::fs::PermissionsExt;
+            let mode = std::fs::metadata(&path).unwrap().permissions().mode();
+            assert_ne!(mode & 0o044, 0, "mode {mode:o}");
+        }
+        // Dropped without a commit (an error path): nothing is left.
+        drop(OutputFile::create(&dir.join("t.json")).unwrap());
+        assert_eq!(entries(&dir), ["s.json"]);
+        std::fs::remove_dir_all(&dir).ok();
+    }
+
+    #[test]
+    fn bad_paths_fail_at_create_and_a_failed_commit_names_the_path() {
+        let dir = scratch("bad");
+        let reason = |path: &Path| OutputFile::create(path).unwrap_err().reason;
+        assert!(reason(&dir).contains("directory"));
+        assert!(reason(&dir.join("missing/s.json")).contains("does not exist"));
+        let path = dir.join("gone/s.json");
+        std::fs::create_dir(dir.join("gone")).unwrap();
+        let file = OutputFile::create(&path).unwrap();
+        std::fs::remove_dir_all(dir.join("gone")).unwrap();
+        let error = file.commit(b"x").unwrap_err();
+        assert_eq!(error.path, path);
+        assert!(entries(&dir).is_empty());
+        std::fs::remove_dir_all(&dir).ok();
+    }
+
+    #[test]
+    fn same_file_sees_through_spellings() {
+        let dir = scratch("same");
+        assert!(same_file(&dir.join("a.rrd"), &dir.join("./a.rrd")));
+        assert!(!same_file(&dir.join("a.rrd"), &dir.join("b.rrd")));
+        std::fs::remove_dir_all(&dir).ok();
     }
 }

@@ -2,7 +2,7 @@
 //! reference, process parameters, sensors, timing and recording options.
 
 use crate::sensors::SensorSpec;
-use controllers::registry::{describe_toml_error, from_table};
+use controllers::registry::{describe_toml_error, from_table, shortened};
 use models::reference::Reference;
 use serde::Deserialize;
 use std::collections::BTreeMap;
@@ -414,14 +414,6 @@ pub fn read_text(path: &Path) -> Result<String, String> {
     String::from_utf8(bytes).map_err(|_| "not UTF-8 text".into())
 }
 
-/// The first 60 characters of a long argument, for a one-line message.
-fn shortened(text: &str) -> String {
-    match text.char_indices().nth(60) {
-        Some((end, _)) => format!("{}…", &text[..end]),
-        None => text.to_string(),
-    }
-}
-
 /// Splits a dotted key; a quoted segment may hold dots (`sensors."table.position".noise`).
 fn key_path(key: &str) -> Option<Vec<String>> {
     let mut parts = vec![String::new()];
@@ -439,7 +431,7 @@ fn key_path(key: &str) -> Option<Vec<String>> {
 /// Sets a dotted key to a TOML value (a number, bool, string, array; bare words are strings).
 fn apply_override(table: &mut toml::Table, assignment: &str) -> Result<(), ScenarioError> {
     let bad = |reason: &str| ScenarioError::BadSet {
-        assignment: shortened(assignment),
+        assignment: shortened(assignment, 60),
         reason: reason.into(),
     };
     let (key, raw) = assignment

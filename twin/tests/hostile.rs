@@ -2,42 +2,15 @@
 //! in bounded time with a one-line error naming what to change (exit 1, or 2 for usage), leaves
 //! nothing half-written, and a stopped run keeps a complete recording.
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output, Stdio};
+mod common;
+
+use common::twin;
+use std::path::Path;
+use std::process::Output;
 use std::time::{Duration, Instant};
 
-/// Longest any of these commands may take (a debug build on a loaded 2-core machine).
-const BOUND: Duration = Duration::from_secs(60);
-
-fn scratch(test: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("twin-hostile-{}-{test}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
-
-/// Runs `twin` in `cwd`, killing it and failing the test if it outlives [`BOUND`].
-fn twin(args: &[&str], cwd: &Path) -> Output {
-    let child = Command::new(env!("CARGO_BIN_EXE_twin"))
-        .args(args)
-        .current_dir(cwd)
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("twin starts");
-    wait_bounded(child, args)
-}
-
-fn wait_bounded(mut child: std::process::Child, what: &[&str]) -> Output {
-    let start = Instant::now();
-    while child.try_wait().expect("wait").is_none() {
-        if start.elapsed() > BOUND {
-            child.kill().ok();
-            panic!("{what:?} still running after {BOUND:?}");
-        }
-        std::thread::sleep(Duration::from_millis(20));
-    }
-    child.wait_with_output().expect("output")
+fn scratch(test: &str) -> std::path::PathBuf {
+    common::scratch("hostile", test)
 }
 
 fn stderr(output: &Output) -> String {

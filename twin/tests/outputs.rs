@@ -3,28 +3,14 @@
 
 mod common;
 
-use common::{parts, scratch, verify};
-use std::process::{Command, Output, Stdio};
+use common::{finished, parts, scratch, verify};
+use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
 fn twin(args: &[&str], dir: &std::path::Path) -> Command {
     let mut command = Command::new(env!("CARGO_BIN_EXE_twin"));
     command.args(args).current_dir(dir);
     command
-}
-
-fn finished(command: &mut Command) -> Output {
-    command.stdout(Stdio::piped()).stderr(Stdio::piped());
-    let mut child = command.spawn().unwrap();
-    let start = Instant::now();
-    while child.try_wait().unwrap().is_none() {
-        if start.elapsed() > Duration::from_secs(120) {
-            child.kill().ok();
-            panic!("{command:?} still running");
-        }
-        std::thread::sleep(Duration::from_millis(20));
-    }
-    child.wait_with_output().unwrap()
 }
 
 #[test]

@@ -5,13 +5,13 @@
 //!
 //! `TWIN_PROPTEST_CASES` sets the cases per property (default 24: about a minute in CI).
 
+mod common;
+
+use common::twin;
 use proptest::prelude::*;
 use proptest::test_runner::{Config, TestCaseError, TestRunner};
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output, Stdio};
-use std::time::{Duration, Instant};
-
-const BOUND: Duration = Duration::from_secs(60);
+use std::process::Output;
 
 /// (scenario, its TOML, its URDF): each shipped URDF with a scenario that uses it.
 const MACHINES: [(&str, &str, &str); 5] = [
@@ -59,39 +59,11 @@ fn config() -> Config {
     }
 }
 
+/// A fresh folder per case (cases of one property share a process).
 fn scratch() -> PathBuf {
-    let dir = tempfile_dir();
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
-
-fn tempfile_dir() -> PathBuf {
     use std::sync::atomic::{AtomicUsize, Ordering};
     static NEXT: AtomicUsize = AtomicUsize::new(0);
-    std::env::temp_dir().join(format!(
-        "twin-prop-{}-{}",
-        std::process::id(),
-        NEXT.fetch_add(1, Ordering::Relaxed)
-    ))
-}
-
-fn twin(args: &[String], cwd: &Path) -> Output {
-    let mut child = Command::new(env!("CARGO_BIN_EXE_twin"))
-        .args(args)
-        .current_dir(cwd)
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("twin starts");
-    let start = Instant::now();
-    while child.try_wait().expect("wait").is_none() {
-        if start.elapsed() > BOUND {
-            child.kill().ok();
-            panic!("{args:?} still running after {BOUND:?}");
-        }
-        std::thread::sleep(Duration::from_millis(10));
-    }
-    child.wait_with_output().expect("output")
+    common::scratch("prop", &NEXT.fetch_add(1, Ordering::Relaxed).to_string())
 }
 
 /// The checks every outcome must pass; `names` are strings one of which an error must contain.
@@ -232,7 +204,7 @@ fn mutated_urdfs_fail_cleanly() {
             let (_, toml, urdf) = MACHINES[machine];
             let dir = scratch();
             write_inputs(&dir, toml, &mutate_urdf(urdf, &mutation));
-            let output = twin(&["run".into(), "m.toml".into()], &dir);
+            let output = twin(&["run", "m.toml"], &dir);
             let result = check(&output, &dir, &["m.toml", "m.urdf"], &["m.urdf".into()]);
             std::fs::remove_dir_all(&dir).ok();
             result
@@ -319,7 +291,7 @@ fn mutate_toml(text: &str, mutation: &TomlMutation) -> (String, Vec<String>) {
             names = vec!["bogus_key".into()];
         }
     }
-    // Errors found downstream name the table (e.g. a controller's missing parameter).
+    // Errors found downstream, or inside a tagged table such as `[reference]`, name the table.
     names.extend(parents.iter().cloned());
     (toml::to_string(&table).unwrap(), names)
 }
@@ -333,7 +305,7 @@ fn mutated_scenarios_fail_naming_the_key() {
             let dir = scratch();
             let (text, names) = mutate_toml(toml, &mutation);
             std::fs::write(dir.join("m.toml"), text).unwrap();
-            let output = twin(&["run".into(), "m.toml".into()], &dir);
+            let output = twin(&["run", "m.toml"], &dir);
             let result = check(&output, &dir, &["m.toml"], &names);
             std::fs::remove_dir_all(&dir).ok();
             result

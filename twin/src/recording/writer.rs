@@ -29,39 +29,10 @@ pub(super) struct PartFile {
 }
 
 impl PartFile {
-    /// Creates `<name>.<random>.part` in the folder of `path` and writes the stream header. A
-    /// unique name keeps concurrent runs writing the same path apart; a name derived from the
-    /// final one lets a user find what a killed run left (see [`super::salvage`]).
+    /// Creates the temporary file beside `path` ([`crate::output::temporary_beside`]) and writes
+    /// the stream header.
     pub(super) fn create(path: &Path) -> Result<PartFile, String> {
-        if path.is_dir() {
-            return Err("it is a directory".to_owned());
-        }
-        let name = path
-            .file_name()
-            .ok_or_else(|| "it does not name a file".to_owned())?;
-        let folder = match path.parent() {
-            Some(folder) if !folder.as_os_str().is_empty() => folder,
-            _ => Path::new("."),
-        };
-        match std::fs::metadata(folder) {
-            Ok(meta) if meta.is_dir() => {}
-            Ok(_) => return Err(format!("{} is not a folder", folder.display())),
-            Err(err) if err.kind() == std::io::ErrorKind::NotFound => {
-                return Err(format!("its folder {} does not exist", folder.display()));
-            }
-            Err(err) => return Err(format!("its folder {}: {err}", folder.display())),
-        }
-        let mut prefix = name.to_owned();
-        prefix.push(".");
-        let mut builder = tempfile::Builder::new();
-        builder.prefix(&prefix).suffix(".part").rand_bytes(6);
-        // Like `File::create`: readable as the umask allows (tempfile's default is owner-only).
-        #[cfg(unix)]
-        builder.permissions(std::os::unix::fs::PermissionsExt::from_mode(0o666));
-        let (file, temp) = builder
-            .tempfile_in(folder)
-            .map_err(|err| format!("cannot create a file in {}: {err}", folder.display()))?
-            .into_parts();
+        let (file, temp) = crate::output::temporary_beside(path)?.into_parts();
         let encoder = Encoder::new_eager(
             CrateVersion::LOCAL,
             EncodingOptions::PROTOBUF_COMPRESSED,
@@ -97,8 +68,7 @@ impl PartFile {
             .map_err(|err| format!("cannot rename the finished file onto it: {}", err.error))?;
         // Best effort: syncing the folder makes the rename itself survive a power loss. The file
         // is in place either way, so a failure here is no reason to report the recording lost.
-        let folder = path.parent().filter(|f| !f.as_os_str().is_empty());
-        if let Ok(folder) = File::open(folder.unwrap_or(Path::new("."))) {
+        if let Ok(folder) = File::open(crate::output::folder_of(path)) {
             let _ = folder.sync_all();
         }
         Ok(bytes)

@@ -1,7 +1,40 @@
-//! Helpers shared by the binary's tests.
+//! Helpers shared by the binary's tests (each test file uses some of them).
+#![allow(dead_code)]
 
 use std::path::{Path, PathBuf};
-use std::process::Command;
+use std::process::{Command, Output, Stdio};
+use std::time::{Duration, Instant};
+
+/// Longest any command of these tests may take (a debug build on a loaded 2-core machine).
+pub const BOUND: Duration = Duration::from_secs(60);
+
+/// Runs `command` to its end with stdout and stderr captured, killing it and failing the test
+/// if it outlives [`BOUND`] (a hang is a failure, not a stuck CI).
+pub fn finished(command: &mut Command) -> Output {
+    let mut child = command
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("the command starts");
+    let start = Instant::now();
+    while child.try_wait().expect("wait").is_none() {
+        if start.elapsed() > BOUND {
+            child.kill().ok();
+            panic!("{command:?} still running after {BOUND:?}");
+        }
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    child.wait_with_output().expect("output")
+}
+
+/// `twin ARGS` in `cwd`, run to its end within [`BOUND`].
+pub fn twin<S: AsRef<std::ffi::OsStr>>(args: &[S], cwd: &Path) -> Output {
+    finished(
+        Command::new(env!("CARGO_BIN_EXE_twin"))
+            .args(args)
+            .current_dir(cwd),
+    )
+}
 
 /// A fresh folder for one test.
 pub fn scratch(group: &str, test: &str) -> PathBuf {
