@@ -18,4 +18,6 @@ pub mod summary;
 pub mod urdf;
 
 pub use run::{Divergence, Interruption, RunSummary, StopFlag, Twin, TwinError};
-pub use scenario::{load as load_scenario, LoadedScenario, Overrides};
+pub use scenario::{
+    load as load_scenario, LoadedScenario, Overrides, Scenario, ScenarioBuilder, ScenarioValue,
+};

@@ -6,7 +6,7 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 use twin::output::{same_file, OutputFile};
 use twin::recording::LiveViewer;
-use twin::scenario::{self, Overrides};
+use twin::scenario::{self, Overrides, Scenario};
 use twin::{reproduce, summary, StopFlag, Twin};
 
 /// Exit codes, as documented in `--help` and the README.
@@ -197,7 +197,9 @@ fn run(args: RunArgs, registry: &Registry) -> Result<ExitCode, Failure> {
         duration: args.duration,
         set: args.set,
     };
-    let loaded = scenario::load(&args.scenario, &overrides)?;
+    let loaded = Scenario::open(&args.scenario)?
+        .overrides(&overrides)?
+        .build()?;
     let out = args
         .out
         .unwrap_or_else(|| PathBuf::from(format!("{}.rrd", loaded.scenario.name)));
@@ -263,10 +265,6 @@ fn stop_on_signals() -> Result<StopFlag, Failure> {
 }
 
 fn bench(args: BenchArgs, registry: &Registry) -> Result<ExitCode, Failure> {
-    let overrides = Overrides {
-        duration: Some(args.duration),
-        ..Default::default()
-    };
     let folder = std::env::temp_dir().join(format!("twin-bench-{}", std::process::id()));
     std::fs::create_dir_all(&folder).map_err(|e| e.to_string())?;
     let out = folder.join("bench.rrd");
@@ -286,7 +284,9 @@ fn bench(args: BenchArgs, registry: &Registry) -> Result<ExitCode, Failure> {
         let mut rates = [0.0; 2];
         let mut shape = (0.0, 0, 0);
         for (rate, recording) in rates.iter_mut().zip([None, Some(out.as_path())]) {
-            let loaded = scenario::load(name, &overrides).map_err(|e| e.to_string())?;
+            let loaded = Scenario::open(name)
+                .and_then(|builder| builder.duration(args.duration).build())
+                .map_err(|e| e.to_string())?;
             shape = (loaded.scenario.dt, loaded.scenario.substeps, 0);
             let twin = Twin::new(loaded, registry).map_err(|e| e.to_string())?;
             let result = twin.run(recording).map_err(|e| e.to_string())?;

@@ -70,6 +70,8 @@ pub enum ScenarioError {
     Invalid { file: String, reason: String },
     #[error("--set {assignment}: {reason}")]
     BadSet { assignment: String, reason: String },
+    #[error("scenario key `{key}`: {reason}")]
+    BadKey { key: String, reason: String },
 }
 
 /// Largest scenario or URDF file read, bytes: far above any real one, and it keeps `/dev/zero`
@@ -80,7 +82,8 @@ pub const MAX_SUBSTEPS: usize = 64;
 /// Default cap on physics steps per run (`max_steps`): about a minute of the fastest machine,
 /// and a recording of a few GB at `recording.every = 1`.
 pub const DEFAULT_MAX_STEPS: usize = 10_000_000;
-/// Largest `--set` key: characters and dotted segments (no scenario key is deeper than 4).
+/// Largest key set (`set`, `--set`): characters and dotted segments (no scenario key is deeper
+/// than 4).
 const MAX_SET_KEY_CHARS: usize = 256;
 const MAX_SET_KEY_SEGMENTS: usize = 8;
 /// Longest scenario name (it names the default recording file).
@@ -184,7 +187,7 @@ fn default_max_steps() -> usize {
 #[derive(Debug, Clone, PartialEq)]
 pub struct LoadedScenario {
     pub scenario: Scenario,
-    /// The TOML as run, after `--set` overrides.
+    /// The TOML as run: the text as written, or re-serialised after changes (`set`, `--set`).
     pub toml: String,
     /// Where the scenario came from, for messages.
     pub source: String,
@@ -306,68 +309,287 @@ pub struct Overrides {
 
 /// Loads a scenario by built-in name or file path, applies the overrides and checks it.
 pub fn load(name_or_path: &str, overrides: &Overrides) -> Result<LoadedScenario, ScenarioError> {
-    let (text, source, folder) = match BUILTIN.iter().find(|(name, _)| *name == name_or_path) {
-        Some((name, text)) => (text.to_string(), format!("built-in scenario {name}"), None),
-        None if name_or_path.ends_with(".toml") || Path::new(name_or_path).exists() => {
-            let path = Path::new(name_or_path);
-            let text = read_text(path).map_err(|reason| ScenarioError::Read {
-                file: name_or_path.into(),
+    Scenario::open(name_or_path)?.overrides(overrides)?.build()
+}
+
+/// A scenario being put together: a built-in or file scenario's TOML plus typed changes; checked
+/// as a whole (the same checks as a TOML file) by `build`.
+#[derive(Debug, Clone)]
+pub struct ScenarioBuilder {
+    table: toml::Table,
+    /// Where the scenario came from, for messages.
+    source: String,
+    /// Where a relative URDF path is looked for first (a scenario file's folder).
+    folder: Option<PathBuf>,
+    /// The text as given: the run's provenance while nothing is changed (comments and all).
+    text: String,
+    changed: bool,
+    /// A change that a method which cannot fail could not make; `build` reports it.
+    pending: Option<ScenarioError>,
+}
+
+/// A typed scenario value. A number TOML cannot hold (beyond i64) is kept as the reason, so
+/// `set` reports it with the key instead of a `From` panicking.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ScenarioValue(Result<toml::Value, String>);
+
+macro_rules! scenario_value_from {
+    ($($from:ty => $variant:ident),* $(,)?) => {$(
+        impl From<$from> for ScenarioValue {
+            fn from(value: $from) -> Self {
+                Self(Ok(toml::Value::$variant(value.into())))
+            }
+        }
+    )*};
+}
+
+scenario_value_from!(
+    f64 => Float, f32 => Float, i64 => Integer, i32 => Integer, u32 => Integer,
+    bool => Boolean, &str => String, String => String, toml::Table => Table,
+);
+
+impl From<toml::Value> for ScenarioValue {
+    fn from(value: toml::Value) -> Self {
+        Self(Ok(value))
+    }
+}
+
+impl From<usize> for ScenarioValue {
+    fn from(value: usize) -> Self {
+        Self::integer(value)
+    }
+}
+
+impl From<u64> for ScenarioValue {
+    fn from(value: u64) -> Self {
+        Self::integer(value)
+    }
+}
+
+impl<T: Into<ScenarioValue>> From<Vec<T>> for ScenarioValue {
+    fn from(items: Vec<T>) -> Self {
+        let items: Result<Vec<_>, _> = items.into_iter().map(|item| item.into().0).collect();
+        Self(items.map(toml::Value::Array))
+    }
+}
+
+impl<T: Into<ScenarioValue>, const N: usize> From<[T; N]> for ScenarioValue {
+    fn from(items: [T; N]) -> Self {
+        Vec::from(items).into()
+    }
+}
+
+impl ScenarioValue {
+    /// An unsigned number as a TOML integer, or the reason it is none.
+    fn integer<T: TryInto<i64> + Copy + std::fmt::Display>(value: T) -> Self {
+        Self(
+            value
+                .try_into()
+                .map(toml::Value::Integer)
+                .map_err(|_| format!("{value} is beyond the largest TOML integer, {}", i64::MAX)),
+        )
+    }
+}
+
+impl Scenario {
+    /// A built-in scenario by name (`whitworth-tracking`, …); unknown names list the known ones.
+    pub fn builtin(name: &str) -> Result<ScenarioBuilder, ScenarioError> {
+        let (name, text) = BUILTIN
+            .iter()
+            .find(|(known, _)| *known == name)
+            .ok_or_else(|| unknown(name))?;
+        Self::from_toml(text, &format!("built-in scenario {name}"), None)
+    }
+
+    /// A scenario file; its URDF path is resolved beside it.
+    pub fn from_file(path: impl AsRef<Path>) -> Result<ScenarioBuilder, ScenarioError> {
+        let path = path.as_ref();
+        let file = path.display().to_string();
+        let text = read_text(path).map_err(|reason| ScenarioError::Read {
+            file: file.clone(),
+            reason,
+        })?;
+        Self::from_toml(&text, &file, path.parent())
+    }
+
+    /// A scenario given as TOML text; `source` names it in messages; a relative URDF path is
+    /// found in `folder` if given, else among the built-in URDFs, else from the working folder.
+    pub fn from_toml(
+        text: &str,
+        source: &str,
+        folder: Option<&Path>,
+    ) -> Result<ScenarioBuilder, ScenarioError> {
+        let table = toml::from_str(text).map_err(|e: toml::de::Error| ScenarioError::Invalid {
+            file: source.into(),
+            reason: describe_toml_error(text, &e),
+        })?;
+        Ok(ScenarioBuilder {
+            table,
+            source: source.into(),
+            folder: folder.map(Path::to_path_buf),
+            text: text.into(),
+            changed: false,
+            pending: None,
+        })
+    }
+
+    /// A built-in name, else a file path (what the CLI's SCENARIO argument accepts).
+    pub fn open(name_or_path: &str) -> Result<ScenarioBuilder, ScenarioError> {
+        if BUILTIN.iter().any(|(name, _)| *name == name_or_path) {
+            Self::builtin(name_or_path)
+        } else if name_or_path.ends_with(".toml") || Path::new(name_or_path).exists() {
+            Self::from_file(name_or_path)
+        } else {
+            Err(unknown(name_or_path))
+        }
+    }
+}
+
+fn unknown(name: &str) -> ScenarioError {
+    ScenarioError::Unknown {
+        name: name.into(),
+        known: BUILTIN
+            .iter()
+            .map(|(n, _)| *n)
+            .collect::<Vec<_>>()
+            .join(", "),
+    }
+}
+
+impl ScenarioBuilder {
+    /// Another controller; the old controller's parameters are dropped (defaults apply).
+    pub fn controller(mut self, name: &str) -> Self {
+        let mut controller = toml::Table::new();
+        controller.insert("name".into(), toml::Value::String(name.into()));
+        self.table
+            .insert("controller".into(), toml::Value::Table(controller));
+        self.changed = true;
+        self
+    }
+
+    /// Simulated time, s.
+    pub fn duration(mut self, seconds: f64) -> Self {
+        self.table
+            .insert("duration".into(), toml::Value::Float(seconds));
+        self.changed = true;
+        self
+    }
+
+    /// The sensor noise's seed; one beyond TOML's integers (above i64::MAX) fails at `build`.
+    pub fn seed(mut self, seed: u64) -> Self {
+        if let Err(reason) = self.put("seed", seed.into()) {
+            let error = ScenarioError::BadKey {
+                key: "seed".into(),
+                reason,
+            };
+            self.pending.get_or_insert(error);
+        }
+        self
+    }
+
+    /// Sets a dotted key (quoted segments may hold dots: `sensors."table.position".noise`) to a
+    /// typed value. Errors (bad key syntax, a parent that is not a table, too deep/long, a number
+    /// TOML cannot hold) name the key; the value's type is checked by `build`.
+    pub fn set(
+        mut self,
+        key: &str,
+        value: impl Into<ScenarioValue>,
+    ) -> Result<Self, ScenarioError> {
+        self.put(key, value.into())
+            .map_err(|reason| ScenarioError::BadKey {
+                key: shortened(key, 60),
                 reason,
             })?;
-            (
-                text,
-                name_or_path.to_string(),
-                path.parent().map(Path::to_path_buf),
-            )
-        }
-        None => {
-            return Err(ScenarioError::Unknown {
-                name: name_or_path.into(),
-                known: BUILTIN
-                    .iter()
-                    .map(|(n, _)| *n)
-                    .collect::<Vec<_>>()
-                    .join(", "),
-            })
-        }
-    };
-    let invalid = |reason: String| ScenarioError::Invalid {
-        file: source.clone(),
-        reason,
-    };
-    let mut table: toml::Table = toml::from_str(&text)
-        .map_err(|e: toml::de::Error| invalid(describe_toml_error(&text, &e)))?;
-    let changed = overrides != &Overrides::default();
-    if let Some(name) = &overrides.controller {
-        let mut controller = toml::Table::new();
-        controller.insert("name".into(), toml::Value::String(name.clone()));
-        table.insert("controller".into(), toml::Value::Table(controller));
+        Ok(self)
     }
-    if let Some(duration) = overrides.duration {
-        table.insert("duration".into(), toml::Value::Float(duration));
-    }
-    for assignment in &overrides.set {
-        apply_override(&mut table, assignment)?;
-    }
-    let toml = if !changed {
-        text
-    } else {
-        toml::to_string(&table).map_err(|e| invalid(e.to_string()))?
-    };
-    let scenario: Scenario = from_table(&table).map_err(invalid)?;
-    scenario.validate().map_err(invalid)?;
-    let (urdf_text, urdf_source) = find_urdf(&scenario.urdf, folder.as_deref())
-        .ok_or_else(|| invalid(format!("urdf `{}` not found", scenario.urdf)))?;
-    Ok(LoadedScenario {
-        scenario,
-        toml,
-        source,
-        urdf_text: urdf_text.map_err(|reason| ScenarioError::Read {
-            file: urdf_source.clone(),
+
+    /// The command line's `key=value` (`--set`): parses the value as TOML (bare words are
+    /// strings) and sets it as `set` does.
+    pub fn assign(mut self, assignment: &str) -> Result<Self, ScenarioError> {
+        let bad = |reason: String| ScenarioError::BadSet {
+            assignment: shortened(assignment, 60),
             reason,
-        })?,
-        urdf_source,
-    })
+        };
+        let (key, raw) = assignment
+            .split_once('=')
+            .ok_or_else(|| bad("expected key=value".into()))?;
+        let value = match format!("v = {raw}").parse::<toml::Table>() {
+            Ok(mut parsed) => parsed.remove("v").ok_or_else(|| bad("no value".into()))?,
+            Err(_) => toml::Value::String(raw.trim().to_string()),
+        };
+        self.put(key, value.into()).map_err(bad)?;
+        Ok(self)
+    }
+
+    /// Applies the CLI's `Overrides` (controller, duration, then each `set` assignment).
+    pub fn overrides(mut self, overrides: &Overrides) -> Result<Self, ScenarioError> {
+        if let Some(name) = &overrides.controller {
+            self = self.controller(name);
+        }
+        if let Some(seconds) = overrides.duration {
+            self = self.duration(seconds);
+        }
+        overrides
+            .set
+            .iter()
+            .try_fold(self, |builder, assignment| builder.assign(assignment))
+    }
+
+    /// Parses, checks (names, timing, sensors, reference, limits) and finds the URDF.
+    pub fn build(self) -> Result<LoadedScenario, ScenarioError> {
+        let Self {
+            table,
+            source,
+            folder,
+            text,
+            changed,
+            pending,
+        } = self;
+        if let Some(error) = pending {
+            return Err(error);
+        }
+        let invalid = |reason: String| ScenarioError::Invalid {
+            file: source.clone(),
+            reason,
+        };
+        let toml = if changed {
+            toml::to_string(&table).map_err(|e| invalid(e.to_string()))?
+        } else {
+            text
+        };
+        let scenario: Scenario = from_table(&table).map_err(invalid)?;
+        scenario.validate().map_err(invalid)?;
+        let (urdf_text, urdf_source) = find_urdf(&scenario.urdf, folder.as_deref())
+            .ok_or_else(|| invalid(format!("urdf `{}` not found", scenario.urdf)))?;
+        Ok(LoadedScenario {
+            scenario,
+            toml,
+            source,
+            urdf_text: urdf_text.map_err(|reason| ScenarioError::Read {
+                file: urdf_source.clone(),
+                reason,
+            })?,
+            urdf_source,
+        })
+    }
+
+    /// Sets a dotted key to a value: the one path of `set` and `assign`.
+    fn put(&mut self, key: &str, value: ScenarioValue) -> Result<(), String> {
+        let path = key_path(key)?;
+        let value = value.0?;
+        let (last, parents) = path.split_last().ok_or("empty key")?;
+        let mut current = &mut self.table;
+        for part in parents {
+            current = current
+                .entry(part.as_str())
+                .or_insert_with(|| toml::Value::Table(toml::Table::new()))
+                .as_table_mut()
+                .ok_or_else(|| format!("`{part}` is not a table"))?;
+        }
+        current.insert(last.clone(), value);
+        self.changed = true;
+        Ok(())
+    }
 }
 
 type UrdfLookup = (Result<String, String>, String);
@@ -415,58 +637,31 @@ pub fn read_text(path: &Path) -> Result<String, String> {
 }
 
 /// Splits a dotted key; a quoted segment may hold dots (`sensors."table.position".noise`).
-fn key_path(key: &str) -> Option<Vec<String>> {
+fn key_path(key: &str) -> Result<Vec<String>, String> {
+    if key.len() > MAX_SET_KEY_CHARS {
+        return Err(format!("key longer than {MAX_SET_KEY_CHARS} characters"));
+    }
     let mut parts = vec![String::new()];
     let mut quoted = false;
-    for c in key.chars() {
+    for c in key.trim().chars() {
         match c {
             '"' => quoted = !quoted,
             '.' if !quoted => parts.push(String::new()),
-            _ => parts.last_mut()?.push(c),
+            _ => parts.last_mut().ok_or("empty key")?.push(c),
         }
     }
-    (!quoted).then_some(parts)
-}
-
-/// Sets a dotted key to a TOML value (a number, bool, string, array; bare words are strings).
-fn apply_override(table: &mut toml::Table, assignment: &str) -> Result<(), ScenarioError> {
-    let bad = |reason: &str| ScenarioError::BadSet {
-        assignment: shortened(assignment, 60),
-        reason: reason.into(),
-    };
-    let (key, raw) = assignment
-        .split_once('=')
-        .ok_or_else(|| bad("expected key=value"))?;
-    if key.len() > MAX_SET_KEY_CHARS {
-        return Err(bad(&format!(
-            "key longer than {MAX_SET_KEY_CHARS} characters"
-        )));
+    if quoted {
+        return Err("unbalanced quotes in the key".into());
     }
-    let path = key_path(key.trim()).ok_or_else(|| bad("unbalanced quotes in the key"))?;
-    if path.iter().any(|p| p.is_empty()) {
-        return Err(bad("empty key"));
+    if parts.iter().any(|p| p.is_empty()) {
+        return Err("empty key".into());
     }
-    if path.len() > MAX_SET_KEY_SEGMENTS {
-        return Err(bad(&format!(
+    if parts.len() > MAX_SET_KEY_SEGMENTS {
+        return Err(format!(
             "key deeper than {MAX_SET_KEY_SEGMENTS} levels; no scenario key is"
-        )));
+        ));
     }
-    let value = match format!("v = {raw}").parse::<toml::Table>() {
-        Ok(mut parsed) => parsed.remove("v").ok_or_else(|| bad("no value"))?,
-        Err(_) => toml::Value::String(raw.trim().to_string()),
-    };
-    let (last, parents) = path.split_last().ok_or_else(|| bad("empty key"))?;
-    let mut current = table;
-    for part in parents {
-        let part = part.as_str();
-        current = current
-            .entry(part.to_string())
-            .or_insert_with(|| toml::Value::Table(toml::Table::new()))
-            .as_table_mut()
-            .ok_or_else(|| bad(&format!("`{part}` is not a table")))?;
-    }
-    current.insert(last.to_string(), value);
-    Ok(())
+    Ok(parts)
 }
 
 #[cfg(test)]
@@ -538,5 +733,137 @@ mod tests {
         assert!(err.to_string().contains("dt"), "{err}");
         let err = load("whitworth-crank-pi", &set(&["control_period=0.0015"])).unwrap_err();
         assert!(err.to_string().contains("whole multiple"), "{err}");
+    }
+
+    fn builder() -> ScenarioBuilder {
+        Scenario::builtin("whitworth-crank-pi").unwrap()
+    }
+
+    #[test]
+    fn typed_values_reach_the_scenario() {
+        let mut detector = toml::Table::new();
+        detector.insert("resolution".into(), 1e-3.into());
+        let loaded = builder()
+            .set("controller.params.crank_speed", -3.5)
+            .and_then(|b| b.set("substeps", 2))
+            .and_then(|b| b.set("max_steps", 20_000_usize))
+            .and_then(|b| b.set("process.cutting", false))
+            .and_then(|b| b.set("description", "typed"))
+            .and_then(|b| b.set("name", String::from("typed-run")))
+            .and_then(|b| b.set("gravity", [0.0, -1.62]))
+            .and_then(|b| b.set("sensors.\"crank.velocity\"", detector))
+            .and_then(|b| b.set("sensors.\"crank.velocity\".noise", 0.5_f32))
+            .map(|b| b.seed(7).duration(0.5))
+            .and_then(ScenarioBuilder::build)
+            .unwrap();
+        let scenario = &loaded.scenario;
+        assert_eq!(
+            scenario.controller.params["crank_speed"].as_float(),
+            Some(-3.5)
+        );
+        assert_eq!((scenario.substeps, scenario.max_steps), (2, 20_000));
+        assert_eq!(scenario.process["cutting"].as_bool(), Some(false));
+        assert_eq!(scenario.description, "typed");
+        assert_eq!(scenario.name, "typed-run");
+        assert_eq!(scenario.gravity, [0.0, -1.62]);
+        let sensor = &scenario.sensors["crank.velocity"];
+        assert_eq!((sensor.resolution, sensor.noise), (1e-3, 0.5));
+        assert_eq!((scenario.seed, scenario.duration), (7, 0.5));
+        assert!(loaded.toml.contains("typed-run"), "{}", loaded.toml);
+    }
+
+    #[test]
+    fn unchanged_builders_keep_the_text_as_written() {
+        let loaded = builder().build().unwrap();
+        assert_eq!(
+            loaded,
+            load("whitworth-crank-pi", &Overrides::default()).unwrap()
+        );
+        assert!(loaded.toml.starts_with("# Inverted Whitworth"));
+    }
+
+    #[test]
+    fn builder_controller_drops_the_old_parameters() {
+        let loaded = builder().controller("passive").build().unwrap();
+        assert_eq!(loaded.scenario.controller.name, "passive");
+        assert!(loaded.scenario.controller.params.is_empty());
+    }
+
+    #[test]
+    fn bad_keys_are_named() {
+        for (key, reason) in [
+            ("sensors.\"crank.position.noise", "unbalanced quotes"),
+            ("controller..params", "empty key"),
+            ("a.b.c.d.e.f.g.h.i", "deeper than 8"),
+            ("dt.value", "`dt` is not a table"),
+            ("controller.name.first", "`name` is not a table"),
+        ] {
+            let err = builder().set(key, 1.0).unwrap_err().to_string();
+            assert!(err.contains(key) && err.contains(reason), "{err}");
+        }
+        let long = "a".repeat(300);
+        let err = builder().set(&long, 1.0).unwrap_err().to_string();
+        assert!(err.contains("longer than 256"), "{err}");
+    }
+
+    #[test]
+    fn numbers_beyond_toml_integers_are_errors_not_panics() {
+        let err = builder()
+            .set("max_steps", usize::MAX)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.contains("max_steps") && err.contains("largest TOML integer"),
+            "{err}"
+        );
+        let err = builder()
+            .set("gravity", vec![u64::MAX, 0])
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("gravity"), "{err}");
+        let err = builder().seed(u64::MAX).build().unwrap_err().to_string();
+        assert!(
+            err.contains("seed") && err.contains("largest TOML integer"),
+            "{err}"
+        );
+    }
+
+    #[test]
+    fn builder_and_assignments_give_the_same_scenario() {
+        let typed = builder()
+            .controller("passive")
+            .set("controller.params", toml::Table::new())
+            .and_then(|b| b.set("sensors.\"crank.position\".noise", 1e-4))
+            .and_then(|b| b.set("gravity", vec![0.0, -9.0]))
+            .and_then(|b| b.set("substeps", 3))
+            .map(|b| b.duration(0.5))
+            .and_then(ScenarioBuilder::build)
+            .unwrap();
+        let overrides = Overrides {
+            controller: Some("passive".into()),
+            duration: Some(0.5),
+            set: [
+                "controller.params={}",
+                "sensors.\"crank.position\".noise=1e-4",
+                "gravity=[0.0, -9.0]",
+                "substeps=3",
+            ]
+            .map(String::from)
+            .into(),
+        };
+        assert_eq!(typed, load("whitworth-crank-pi", &overrides).unwrap());
+    }
+
+    #[test]
+    fn wrong_types_fail_at_build_naming_the_key() {
+        let fast = builder().set("dt", "fast").unwrap();
+        let err = fast.build().unwrap_err().to_string();
+        assert!(err.contains("`dt`"), "{err}");
+        let err = builder()
+            .set("sensors.\"crank.position\".noise", true)
+            .and_then(ScenarioBuilder::build)
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("noise"), "{err}");
     }
 }
