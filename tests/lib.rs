@@ -2,18 +2,40 @@
 
 use controllers::Registry;
 use std::path::PathBuf;
-use twin::{LoadedScenario, Overrides, RunSummary, Twin};
+use twin::{LoadedScenario, RunSummary, Scenario, ScenarioBuilder, ScenarioValue, Twin};
 
-/// Loads a built-in scenario with `key=value` overrides.
+/// A built-in scenario to change with typed values; panics with the error (a test's typo).
+pub fn builtin(name: &str) -> ScenarioBuilder {
+    Scenario::builtin(name).unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// The builder's fallible steps for tests that configure a run: a failure is the test's own
+/// mistake, so it panics with the message instead of being handled.
+pub trait Configure: Sized {
+    /// `set`, panicking with the error.
+    fn with(self, key: &str, value: impl Into<ScenarioValue>) -> Self;
+    /// `build`, panicking with the error.
+    fn loaded(self) -> LoadedScenario;
+}
+
+impl Configure for ScenarioBuilder {
+    fn with(self, key: &str, value: impl Into<ScenarioValue>) -> Self {
+        self.set(key, value).unwrap_or_else(|e| panic!("{e}"))
+    }
+
+    fn loaded(self) -> LoadedScenario {
+        self.build().unwrap_or_else(|e| panic!("{e}"))
+    }
+}
+
+/// Loads a built-in scenario with command-line `key=value` assignments (`--set`).
 pub fn scenario(name: &str, set: &[&str]) -> LoadedScenario {
-    twin::load_scenario(
-        name,
-        &Overrides {
-            set: set.iter().map(|s| s.to_string()).collect(),
-            ..Default::default()
-        },
-    )
-    .unwrap_or_else(|e| panic!("{e}"))
+    set.iter()
+        .try_fold(builtin(name), |builder, assignment| {
+            builder.assign(assignment)
+        })
+        .and_then(ScenarioBuilder::build)
+        .unwrap_or_else(|e| panic!("{e}"))
 }
 
 /// Runs a loaded scenario with the built-in controllers, optionally recording.

@@ -4,8 +4,8 @@
 //! programs and parameters are refused before the run.
 
 use controllers::Registry;
-use twin::{RunSummary, Twin};
-use twin_tests::{run, scenario};
+use twin::{RunSummary, ScenarioValue, Twin};
+use twin_tests::{builtin, run, Configure};
 
 const TOLERANCE: f64 = 18.0;
 const MOTORS: [&str; 4] = ["shoulder", "elbow", "wrist", "spindle"];
@@ -18,23 +18,19 @@ fn peak_ratio(summary: &RunSummary) -> f64 {
 }
 
 fn constant(speed: f64) -> RunSummary {
-    let params = format!("controller.params={{ path_speed = {speed} }}");
     run(
-        scenario(
-            "arm-milling",
-            &[
-                "controller.name=\"path-speed-constant\"",
-                &params,
-                "duration=20",
-            ],
-        ),
+        builtin("arm-milling")
+            .controller("path-speed-constant")
+            .with("controller.params.path_speed", speed)
+            .duration(20.0)
+            .loaded(),
         None,
     )
 }
 
 #[test]
 fn adaptive_correction_against_constant_speeds() {
-    let adaptive = run(scenario("arm-milling", &[]), None);
+    let adaptive = run(builtin("arm-milling").loaded(), None);
     assert!(adaptive.failure.is_none(), "{:?}", adaptive.failure);
     let blind = constant(0.020);
     let safe = constant(0.014);
@@ -69,21 +65,21 @@ fn adaptive_correction_against_constant_speeds() {
     assert!(m(&blind, "path_deviation_max") >= 5.0 * m(&adaptive, "path_deviation_max"));
 }
 
-fn refused(set: &[&str]) -> String {
-    let loaded = scenario("arm-milling", set);
+fn refused(key: &str, value: impl Into<ScenarioValue>) -> String {
+    let loaded = builtin("arm-milling").with(key, value).loaded();
     match Twin::new(loaded, &Registry::builtin()) {
-        Ok(_) => panic!("{set:?} must be refused before the run"),
+        Ok(_) => panic!("{key} must be refused before the run"),
         Err(e) => e.to_string(),
     }
 }
 
 #[test]
 fn bad_programs_and_parameters_are_refused_before_the_run() {
-    let err = refused(&["controller.params.servo.contour.start=[0.95, -0.25]"]);
+    let err = refused("controller.params.servo.contour.start", [0.95, -0.25]);
     assert!(err.contains("out of the arm's reach"), "{err}");
-    let err = refused(&["controller.params.current_tolerance=0.0"]);
+    let err = refused("controller.params.current_tolerance", 0.0);
     assert!(err.contains("current_tolerance"), "{err}");
-    let err = refused(&["controller.params.current_tolerance=-18.0"]);
+    let err = refused("controller.params.current_tolerance", -18.0);
     assert!(err.contains("current_tolerance"), "{err}");
     for key in [
         "speed_filter_lead",
@@ -91,16 +87,26 @@ fn bad_programs_and_parameters_are_refused_before_the_run() {
         "current_filter_lead",
         "current_filter_lag",
     ] {
-        for value in ["0.0", "-0.01"] {
-            let err = refused(&[&format!("controller.params.{key}={value}")]);
+        for value in [0.0, -0.01] {
+            let err = refused(&format!("controller.params.{key}"), value);
             assert!(err.contains(key), "{err}");
         }
     }
     // A shoulder drive of another gear ratio than the URDF's 84 N·m limit was drawn for.
-    let err = refused(&[
-        "process.drives.shoulder={ torque_constant = 0.035, back_emf_constant = 0.035, \
-         resistance = 0.3, inductance = 0.0005, gear_ratio = 100.0, supply_voltage = 48.0, \
-         current_limit = 20.0, current_bandwidth = 2000.0, current_loop_period = 0.0001 }",
-    ]);
+    let drive: toml::Table = [
+        ("torque_constant", 0.035),
+        ("back_emf_constant", 0.035),
+        ("resistance", 0.3),
+        ("inductance", 0.0005),
+        ("gear_ratio", 100.0),
+        ("supply_voltage", 48.0),
+        ("current_limit", 20.0),
+        ("current_bandwidth", 2000.0),
+        ("current_loop_period", 0.0001),
+    ]
+    .into_iter()
+    .map(|(name, value)| (name.to_string(), toml::Value::Float(value)))
+    .collect();
+    let err = refused("process.drives.shoulder", drive);
     assert!(err.contains("peak joint torque"), "{err}");
 }

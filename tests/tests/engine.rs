@@ -7,7 +7,7 @@ use std::f64::consts::{FRAC_PI_2, TAU};
 use twin::energy::mechanical_energy;
 use twin::mechanism::{JointMotion, Mechanism};
 use twin::physics::{MechanismState, Physics, SolverSettings};
-use twin_tests::{run, scenario};
+use twin_tests::{builtin, run, Configure};
 
 const GRAVITY: [f64; 2] = [0.0, -9.81];
 
@@ -115,14 +115,10 @@ fn undamped_passive_arm_keeps_its_energy() {
 #[test]
 fn passive_whitworth_keeps_its_energy_and_closes_its_loops_exactly() {
     let summary = run(
-        scenario(
-            "whitworth-crank-pi",
-            &[
-                "controller.name=\"passive\"",
-                "controller.params={}",
-                "duration=10",
-            ],
-        ),
+        builtin("whitworth-crank-pi")
+            .controller("passive")
+            .duration(10.0)
+            .loaded(),
         None,
     );
     assert!(summary.failure.is_none(), "{:?}", summary.failure);
@@ -139,34 +135,34 @@ fn passive_whitworth_keeps_its_energy_and_closes_its_loops_exactly() {
 
 #[test]
 fn whitworth_closes_its_loops_exactly_at_any_speed_and_substep_count() {
-    for (name, set) in [
-        ("whitworth-crank-pi", vec!["duration=3"]),
+    for (name, builder) in [
+        ("crank-pi, 3 s", builtin("whitworth-crank-pi").duration(3.0)),
         (
-            "whitworth-crank-pi",
-            vec![
-                "duration=3",
-                "controller.params.crank_speed=-12.566370614359172",
-            ],
+            "crank-pi, 3 s at 2 turns/s",
+            builtin("whitworth-crank-pi")
+                .duration(3.0)
+                .with("controller.params.crank_speed", -2.0 * TAU),
         ),
-        ("whitworth-crank-pi", vec!["duration=2", "substeps=3"]),
-        ("whitworth-tracking", vec![]),
-        ("whitworth-cutting", vec![]),
+        (
+            "crank-pi, 2 s, 3 substeps",
+            builtin("whitworth-crank-pi")
+                .duration(2.0)
+                .with("substeps", 3),
+        ),
+        ("whitworth-tracking", builtin("whitworth-tracking")),
+        ("whitworth-cutting", builtin("whitworth-cutting")),
     ] {
-        let summary = run(scenario(name, &set), None);
-        assert!(
-            summary.failure.is_none(),
-            "{name} {set:?}: {:?}",
-            summary.failure
-        );
+        let summary = run(builder.loaded(), None);
+        assert!(summary.failure.is_none(), "{name}: {:?}", summary.failure);
         let gap = summary.metric("loop_closure_error_max").unwrap();
         let ram = summary.metric("ram_model_error_max").unwrap();
         let velocity = summary.metric("ram_velocity_error_relative_max").unwrap();
-        println!("{name} {set:?}: loop gap {gap:.2e} m, ram error {ram:.2e} m, ram velocity vs J·q̇ {velocity:.2e}");
-        assert!(gap <= 1e-9, "{name} {set:?}: loop gap {gap} m");
-        assert!(ram <= 1e-9, "{name} {set:?}: ram error {ram} m");
+        println!("{name}: loop gap {gap:.2e} m, ram error {ram:.2e} m, ram velocity vs J·q̇ {velocity:.2e}");
+        assert!(gap <= 1e-9, "{name}: loop gap {gap} m");
+        assert!(ram <= 1e-9, "{name}: ram error {ram} m");
         assert!(
             velocity <= 1e-9,
-            "{name} {set:?}: ram velocity off J·q̇ by {velocity} (relative)"
+            "{name}: ram velocity off J·q̇ by {velocity} (relative)"
         );
     }
 }

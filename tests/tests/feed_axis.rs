@@ -4,8 +4,8 @@
 
 use controllers::{Controller, ControllerError, Measurement, PlantInterface, Registry};
 use std::sync::{Arc, Mutex};
-use twin::{LoadedScenario, Overrides, RunSummary, Twin};
-use twin_tests::{run, scenario};
+use twin::{RunSummary, ScenarioBuilder, ScenarioValue, Twin};
+use twin_tests::{builtin, run, Configure};
 
 const SCENARIO: &str = "feed-axis-micromilling";
 /// The URDF's table: moving mass, kg, and guide-way damping, N·s/m.
@@ -58,10 +58,10 @@ impl Controller for ForceProbe {
 /// Runs the axis in air under `force` for `duration` s, with an exact encoder, and returns the
 /// table's motion at every step.
 fn push_table(force: fn(f64) -> f64, duration: f64) -> Vec<Sample> {
-    let mut loaded = scenario(
-        SCENARIO,
-        &["process.cutting=false", &format!("duration={duration}")],
-    );
+    let mut loaded = builtin(SCENARIO)
+        .with("process.cutting", false)
+        .duration(duration)
+        .loaded();
     loaded.scenario.sensors.clear();
     let log = Arc::new(Mutex::new(Vec::new()));
     let probe = ForceProbe {
@@ -149,20 +149,26 @@ fn no_numerical_noise_floor_at_the_papers_scale() {
 
 #[test]
 fn the_machine_judges_against_the_reference_the_controller_gets() {
-    // A reference moved by --set moves the machine's figures with it.
+    // A reference moved by the scenario moves the machine's figures with it.
     let shifted = run(
-        scenario(SCENARIO, &["duration=0.05", "reference.offset=1.0e-3"]),
+        builtin(SCENARIO)
+            .duration(0.05)
+            .with("reference.offset", 1.0e-3)
+            .loaded(),
         None,
     );
     assert!(shifted
         .metric("position_error_max")
         .is_some_and(|v| v > 0.9e-3));
-    let summary = run(scenario(SCENARIO, &["duration=0.05"]), None);
+    let summary = run(builtin(SCENARIO).duration(0.05).loaded(), None);
     for metric in ["position_error_max", "cutting_force_peak", "peak_current"] {
         assert!(summary.metric(metric).is_some_and(|v| v > 0.0), "{metric}");
     }
     let air = run(
-        scenario(SCENARIO, &["duration=0.05", "process.cutting=false"]),
+        builtin(SCENARIO)
+            .duration(0.05)
+            .with("process.cutting", false)
+            .loaded(),
         None,
     );
     assert_eq!(air.metric("cutting_force_peak"), None);
@@ -170,7 +176,7 @@ fn the_machine_judges_against_the_reference_the_controller_gets() {
 
 #[test]
 fn drive_turns_the_force_command_into_current_and_limits_it() {
-    let free = run(scenario(SCENARIO, &["duration=0.5"]), None);
+    let free = run(builtin(SCENARIO).duration(0.5).loaded(), None);
     let peak_current = free.metric("peak_current").unwrap();
     let peak_force = free.metric("peak_effort/table").unwrap();
     // K_a = 50 N/A: the force the table receives is K_a times the amplifier's current.
@@ -181,7 +187,10 @@ fn drive_turns_the_force_command_into_current_and_limits_it() {
     assert_eq!(free.metric("current_limited_fraction"), Some(0.0));
     // A 10 µA amplifier cannot give the 25 µA the start needs: the current is clipped there.
     let limited = run(
-        scenario(SCENARIO, &["duration=0.5", "process.current_limit=1e-5"]),
+        builtin(SCENARIO)
+            .duration(0.5)
+            .with("process.current_limit", 1e-5)
+            .loaded(),
         None,
     );
     assert_eq!(limited.metric("peak_current"), Some(1e-5));
@@ -197,19 +206,16 @@ fn position_errors(summary: &RunSummary) -> (f64, f64) {
     )
 }
 
-fn compare(controller: &str, cutting: bool, set: &[&str]) -> (f64, f64) {
-    let mut assignments = vec![format!("process.cutting={cutting}")];
-    assignments.extend(set.iter().map(|s| s.to_string()));
-    let loaded = twin::load_scenario(
-        SCENARIO,
-        &Overrides {
-            controller: Some(controller.into()),
-            set: assignments,
-            ..Default::default()
-        },
-    )
-    .unwrap_or_else(|e| panic!("{e}"));
-    let summary = run(loaded, None);
+/// A run of `controller`, in air or cutting, over the window `window` sets.
+fn compare(
+    controller: &str,
+    cutting: bool,
+    window: fn(ScenarioBuilder) -> ScenarioBuilder,
+) -> (f64, f64) {
+    let builder = builtin(SCENARIO)
+        .controller(controller)
+        .with("process.cutting", cutting);
+    let summary = run(window(builder).loaded(), None);
     assert!(summary.failure.is_none(), "{:?}", summary.failure);
     let errors = position_errors(&summary);
     println!(
@@ -224,9 +230,9 @@ fn compare(controller: &str, cutting: bool, set: &[&str]) -> (f64, f64) {
 #[test]
 fn stsmc_tracks_closer_than_p_pi_and_shrugs_off_the_cut() {
     // Table I's window starts at rest: the max is P-PI's start transient (the paper: 0.1826 µm).
-    let window = ["duration=2"];
-    let p_pi = [false, true].map(|cut| compare("p-pi", cut, &window));
-    let stsmc = [false, true].map(|cut| compare("stsmc", cut, &window));
+    let window = |builder: ScenarioBuilder| builder.duration(2.0);
+    let p_pi = [false, true].map(|cut| compare("p-pi", cut, window));
+    let stsmc = [false, true].map(|cut| compare("stsmc", cut, window));
     assert!((p_pi[0].0 - 0.1826).abs() < 0.01 * 0.1826, "{:?}", p_pi[0]);
     // The paper's STSMC is 3.1× better on the max; the twin's at least that.
     for (p, s) in p_pi.iter().zip(&stsmc) {
@@ -234,10 +240,11 @@ fn stsmc_tracks_closer_than_p_pi_and_shrugs_off_the_cut() {
     }
     // The cut's effect once the start is over (from 1 s): P-PI's slow integral lets the cut's
     // drag through; STSMC's switching absorbs it to within the 1 nm encoder.
-    let settled = ["duration=2.5", "process.metrics_from=1"];
-    let p_pi = [false, true].map(|cut| compare("p-pi", cut, &settled));
-    let stsmc = [false, true].map(|cut| compare("stsmc", cut, &settled));
-    let dob = [false, true].map(|cut| compare("stsmc-dob", cut, &settled));
+    let settled =
+        |builder: ScenarioBuilder| builder.duration(2.5).with("process.metrics_from", 1.0);
+    let p_pi = [false, true].map(|cut| compare("p-pi", cut, settled));
+    let stsmc = [false, true].map(|cut| compare("stsmc", cut, settled));
+    let dob = [false, true].map(|cut| compare("stsmc-dob", cut, settled));
     let extra = |errors: &[(f64, f64); 2]| errors[1].1 - errors[0].1;
     assert!(extra(&p_pi) > 5e-3, "P-PI: σ {p_pi:?}");
     for sliding in [&stsmc, &dob] {
@@ -250,64 +257,66 @@ fn stsmc_tracks_closer_than_p_pi_and_shrugs_off_the_cut() {
     }
 }
 
-/// Builds the twin as `twin run` does and returns its error.
-fn refused(controller: &str, set: &[&str]) -> String {
-    let loaded: LoadedScenario = twin::load_scenario(
-        SCENARIO,
-        &Overrides {
-            controller: Some(controller.into()),
-            set: set.iter().map(|s| s.to_string()).collect(),
-            ..Default::default()
-        },
-    )
-    .unwrap_or_else(|e| panic!("{e}"));
+/// Builds the twin as `twin run` does, with `key` set to `value`, and returns its error.
+fn refused(controller: &str, key: &str, value: impl Into<ScenarioValue>) -> String {
+    let loaded = builtin(SCENARIO)
+        .controller(controller)
+        .with(key, value)
+        .loaded();
     match Twin::new(loaded, &Registry::builtin()) {
-        Ok(_) => panic!("{controller} with {set:?} must be refused"),
+        Ok(_) => panic!("{controller} with {key} must be refused"),
         Err(e) => e.to_string(),
     }
 }
 
 #[test]
 fn bad_controller_parameters_are_refused_before_the_run() {
-    for (controller, set, expected) in [
+    for (controller, key, value, expected) in [
         (
             "p-pi",
-            "controller.params.mass_estimate=0.0",
+            "controller.params.mass_estimate",
+            0.0,
             "mass_estimate",
         ),
         (
             "stsmc",
-            "controller.params.mass_estimate=-11.0",
+            "controller.params.mass_estimate",
+            -11.0,
             "mass_estimate",
         ),
         (
             "stsmc-dob",
-            "controller.params.mass_estimate=0.0",
+            "controller.params.mass_estimate",
+            0.0,
             "mass_estimate",
         ),
         (
             "stsmc",
-            "controller.params.proportional_switching_gain=0.0",
+            "controller.params.proportional_switching_gain",
+            0.0,
             "proportional_switching_gain must be finite and > 0",
         ),
         (
             "stsmc-dob",
-            "controller.params.proportional_switching_gain=-10.0",
+            "controller.params.proportional_switching_gain",
+            -10.0,
             "proportional_switching_gain must be finite and > 0",
         ),
         (
             "stsmc",
-            "controller.params.surface_integral_gain=-135.0",
+            "controller.params.surface_integral_gain",
+            -135.0,
             "not Hurwitz",
         ),
         (
             "stsmc-dob",
-            "controller.params.surface_velocity_gain=-1.0",
+            "controller.params.surface_velocity_gain",
+            -1.0,
             "not Hurwitz",
         ),
     ] {
-        let message = refused(controller, &[set]);
-        println!("{controller} {set}: {message}");
+        let message = refused(controller, key, value);
+        println!("{controller} {key} = {value}: {message}");
         assert!(message.contains(expected), "{message}");
         assert!(message.contains(&format!("`{controller}`")), "{message}");
     }
@@ -315,19 +324,21 @@ fn bad_controller_parameters_are_refused_before_the_run() {
 
 #[test]
 fn bad_process_parameters_are_refused_before_the_run() {
-    for (set, expected) in [
+    let cases: [(&str, ScenarioValue, &str); 6] = [
         (
-            "process.current_limit=0.0",
+            "process.current_limit",
+            0.0.into(),
             "current_limit must be finite and > 0",
         ),
-        ("process.force_constant=-50.0", "force_constant"),
-        ("process.cut.teeth=0", "teeth"),
-        ("process.cut.runout_offset=1.0e-4", "runout_offset"),
-        ("process.metrics_from=-1.0", "metrics_from"),
-        ("process.spindle=1.0", "spindle"),
-    ] {
-        let message = refused("p-pi", &[set]);
-        println!("{set}: {message}");
+        ("process.force_constant", (-50.0).into(), "force_constant"),
+        ("process.cut.teeth", 0.into(), "teeth"),
+        ("process.cut.runout_offset", 1.0e-4.into(), "runout_offset"),
+        ("process.metrics_from", (-1.0).into(), "metrics_from"),
+        ("process.spindle", 1.0.into(), "spindle"),
+    ];
+    for (key, value, expected) in cases {
+        let message = refused("p-pi", key, value);
+        println!("{key}: {message}");
         assert!(message.contains("feed_axis"), "{message}");
         assert!(message.contains(expected), "{message}");
     }

@@ -5,8 +5,8 @@
 use controllers::Registry;
 use twin::analysis::lathe::{analyze, Gains, PhasePlane, PhasePlaneRequest};
 use twin::reproduce::lathe::{compare, Comparison, TwinStart, AGREEMENT};
-use twin::{Overrides, Twin};
-use twin_tests::{run, scenario, scratch};
+use twin::{ScenarioBuilder, ScenarioValue, Twin};
+use twin_tests::{builtin, run, scratch, Configure};
 
 /// The reduced model's phase plane for a gain set, on a coarse grid (the twin runs need only its
 /// lathe, gains and trajectories).
@@ -127,7 +127,7 @@ fn gains_meeting_eq_23_bring_the_same_low_start_to_p_max() {
 fn the_scenario_records_and_reports_the_design() {
     let dir = scratch("lathe-recording");
     let out = dir.join("lathe.rrd");
-    let summary = run(scenario("lathe-turning", &["duration=0.6"]), Some(&out));
+    let summary = run(builtin("lathe-turning").duration(0.6).loaded(), Some(&out));
     assert!(summary.failure.is_none(), "{:?}", summary.failure);
     assert!(std::fs::metadata(&out).unwrap().len() > 10_000);
     let engaged = summary.metric("engaged_at").unwrap();
@@ -168,27 +168,27 @@ fn analysis_writes_its_tables_and_plot() {
     assert!(low > 11.7e3 && high < 12.1e3, "boundary {low}..{high} W");
 }
 
-/// Loads `lathe-turning` with `set` and builds the twin: the error it stops with, as text.
-fn refused(set: &[&str]) -> String {
-    let overrides = Overrides {
-        set: set.iter().map(|s| s.to_string()).collect(),
-        ..Default::default()
-    };
-    let error = match twin::load_scenario("lathe-turning", &overrides) {
+/// Loads `lathe-turning` with `key` set to `value` and builds the twin: the error it stops
+/// with, as text.
+fn refused(key: &str, value: impl Into<ScenarioValue>) -> String {
+    let loaded = builtin("lathe-turning")
+        .set(key, value)
+        .and_then(ScenarioBuilder::build);
+    let error = match loaded {
         Err(e) => e.to_string(),
         Ok(loaded) => match Twin::new(loaded, &Registry::builtin()) {
             Err(e) => e.to_string(),
-            Ok(_) => panic!("{set:?} must be refused"),
+            Ok(_) => panic!("{key} must be refused"),
         },
     };
-    println!("{set:?}: {error}");
+    println!("{key}: {error}");
     error
 }
 
-/// A Table 1 tool as an inline TOML table with one field changed.
-fn tools_with(tool_2_field: &str, value: f64) -> String {
-    let tool = |diameter: f64, depth: f64, tau: f64, field: Option<(&str, f64)>| {
-        let mut fields = [
+/// Table 1's tools, tool 2 with one field changed.
+fn tools_with(tool_2_field: &str, value: f64) -> Vec<toml::Table> {
+    let tool = |diameter: f64, depth: f64, tau: f64| -> toml::Table {
+        [
             ("diameter", diameter),
             ("depth_of_cut", depth),
             ("cutting_coefficient", 4.765_242_7e8),
@@ -196,53 +196,47 @@ fn tools_with(tool_2_field: &str, value: f64) -> String {
             ("depth_exponent", 0.87),
             ("speed_exponent", -0.27),
             ("feed_time_constant", tau),
-        ];
-        if let Some((name, value)) = field {
-            fields.iter_mut().find(|(n, _)| *n == name).unwrap().1 = value;
-        }
-        let body: Vec<String> = fields.iter().map(|(n, v)| format!("{n} = {v:?}")).collect();
-        format!("{{ {} }}", body.join(", "))
+        ]
+        .into_iter()
+        .map(|(name, value)| (name.to_string(), toml::Value::Float(value)))
+        .collect()
     };
-    format!(
-        "[{}, {}]",
-        tool(0.05, 3e-3, 0.05, None),
-        tool(0.1, 1e-3, 0.049, Some((tool_2_field, value)))
-    )
+    let mut tools = vec![tool(0.05, 3e-3, 0.05), tool(0.1, 1e-3, 0.049)];
+    let old = tools[1].insert(tool_2_field.into(), toml::Value::Float(value));
+    assert!(old.is_some(), "a tool has no {tool_2_field}");
+    tools
 }
 
 #[test]
 fn bad_inputs_are_refused_before_the_run() {
     // Design time constants m_i.
-    let error = refused(&["controller.params.time_constants=[0.5, 0.0]"]);
+    let error = refused("controller.params.time_constants", [0.5, 0.0]);
     assert!(error.contains("m_2") && error.contains("> 0"), "{error}");
     // Servo time constants τ_i, in the controller's model and in the machine.
     for table in ["controller.params.lathe.tools", "process.lathe.tools"] {
-        let tools = tools_with("feed_time_constant", -0.049);
-        let error = refused(&[&format!("{table}={tools}")]);
+        let error = refused(table, tools_with("feed_time_constant", -0.049));
         assert!(error.contains("tool 2 feed_time_constant"), "{error}");
-        let tools = tools_with("feed_exponent", 1.2);
-        let error = refused(&[&format!("{table}={tools}")]);
+        let error = refused(table, tools_with("feed_exponent", 1.2));
         assert!(error.contains("α = 1.2 is outside (0, 1]"), "{error}");
-        let tools = tools_with("feed_exponent", 0.0);
-        let error = refused(&[&format!("{table}={tools}")]);
+        let error = refused(table, tools_with("feed_exponent", 0.0));
         assert!(error.contains("outside (0, 1]"), "{error}");
     }
     // A power the tools cannot reach within the 1.5 mm feed limit.
     for key in ["controller.params.lathe", "process.lathe"] {
-        let error = refused(&[&format!("{key}.max_spindle_power=60000.0")]);
+        let error = refused(&format!("{key}.max_spindle_power"), 60000.0);
         assert!(
             error.contains("reaches only") && error.contains("feed limit"),
             "{error}"
         );
     }
-    let error = refused(&["controller.params.lathe.max_feed=0.5e-3"]);
+    let error = refused("controller.params.lathe.max_feed", 0.5e-3);
     assert!(error.contains("tool 1 must take 10000 W"), "{error}");
     // An initial force beyond the feed limit, a negative air gap, a stray key.
-    let error = refused(&["controller.params.initial_forces=[9000.0, 500.0]"]);
+    let error = refused("controller.params.initial_forces", [9000.0, 500.0]);
     assert!(error.contains("feed limit"), "{error}");
-    let error = refused(&["process.approach_gaps=[-1e-3, 1e-3]"]);
+    let error = refused("process.approach_gaps", [-1e-3, 1e-3]);
     assert!(error.contains("approach_gaps[0]"), "{error}");
-    let error = refused(&["process.chuck=1.0"]);
+    let error = refused("process.chuck", 1.0);
     assert!(error.contains("chuck"), "{error}");
 }
 
@@ -304,11 +298,8 @@ fn analyze_command_names_bad_requests() {
 fn the_paper_sample_period_or_a_late_force_sensor_change_little() {
     // The paper samples its controller every 4 ms: here the whole controller, servos included,
     // runs at that period. Separately, tool 1's force reaches the 1 ms controller 4 ms late.
-    for set in [
-        "control_period=0.004",
-        "sensors.cutting_force_1.delay=0.004",
-    ] {
-        let summary = run(scenario("lathe-turning", &[set]), None);
+    for key in ["control_period", "sensors.cutting_force_1.delay"] {
+        let summary = run(builtin("lathe-turning").with(key, 0.004).loaded(), None);
         assert!(summary.failure.is_none(), "{:?}", summary.failure);
         for (tool, reference) in [(1, 2546.479), (2, 1273.240)] {
             let settled = summary
@@ -316,7 +307,7 @@ fn the_paper_sample_period_or_a_late_force_sensor_change_little() {
                 .unwrap();
             assert!(
                 (settled - reference).abs() < AGREEMENT * reference,
-                "{set}: tool {tool} at {settled} N"
+                "{key}: tool {tool} at {settled} N"
             );
         }
     }

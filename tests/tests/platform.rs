@@ -2,8 +2,8 @@
 //! drift on a slippery floor, bad input caught before the run, and the PID grid search.
 
 use controllers::Registry;
-use twin::{Overrides, RunSummary, Twin};
-use twin_tests::{run, scenario, scratch};
+use twin::{RunSummary, Scenario, ScenarioBuilder, ScenarioValue, Twin};
+use twin_tests::{builtin, run, scratch, Configure};
 
 fn metric(summary: &RunSummary, name: &str) -> f64 {
     summary
@@ -17,24 +17,15 @@ fn odometry_drift(summary: &RunSummary) -> f64 {
         .hypot(metric(summary, "controller_final/odometry.y_h") - metric(summary, "final_y_h"))
 }
 
-fn run_with(name: &str, controller: Option<&str>, set: &[&str]) -> RunSummary {
-    let loaded = twin::load_scenario(
-        name,
-        &Overrides {
-            controller: controller.map(String::from),
-            set: set.iter().map(|s| s.to_string()).collect(),
-            ..Default::default()
-        },
-    )
-    .unwrap_or_else(|e| panic!("{e}"));
-    run(loaded, None)
+fn run_built(builder: ScenarioBuilder) -> RunSummary {
+    run(builder.loaded(), None)
 }
 
 #[test]
 fn both_controllers_follow_both_paths() {
     for path in ["platform-path", "platform-path-s"] {
-        let optimal = run(scenario(path, &[]), None);
-        let pid = run_with(path, Some("pid"), &[]);
+        let optimal = run_built(builtin(path));
+        let pid = run_built(builtin(path).controller("pid"));
         for summary in [&optimal, &pid] {
             assert!(summary.failure.is_none(), "{:?}", summary.failure);
             assert!(metric(summary, "path_error_rms") < 2e-3);
@@ -53,11 +44,11 @@ fn both_controllers_follow_both_paths() {
 
 #[test]
 fn a_slippery_floor_makes_the_wheels_slip_and_the_odometry_drift() {
-    let grip = run_with("platform-path", None, &["duration=14"]);
-    let slippery = run_with(
-        "platform-path",
-        None,
-        &["duration=14", "process.friction=0.05"],
+    let grip = run_built(builtin("platform-path").duration(14.0));
+    let slippery = run_built(
+        builtin("platform-path")
+            .duration(14.0)
+            .with("process.friction", 0.05),
     );
     let (slip_grip, slip_low) = (
         metric(&grip, "wheel_slip_max"),
@@ -71,23 +62,40 @@ fn a_slippery_floor_makes_the_wheels_slip_and_the_odometry_drift() {
     );
 }
 
+/// A path given as one segment of `kind` with these lengths, m.
+fn one_segment(kind: &str, lengths: &[(&str, f64)]) -> ScenarioValue {
+    let mut segment = toml::Table::new();
+    segment.insert("kind".into(), kind.into());
+    for &(name, value) in lengths {
+        segment.insert(name.into(), value.into());
+    }
+    vec![segment].into()
+}
+
 #[test]
 fn bad_paths_are_errors_before_the_run() {
-    for (set, expected) in [
+    let curve = [
+        ("radius", 0.0),
+        ("clothoid_length", 0.3),
+        ("arc_length", 0.5),
+    ];
+    for (key, value, expected) in [
         (
-            r#"process.path.segments=[{kind="straight", length=-0.5}]"#,
+            "process.path.segments",
+            one_segment("straight", &[("length", -0.5)]),
             "length must be",
         ),
         (
-            r#"process.path.segments=[{kind="curve", radius=0.0, clothoid_length=0.3, arc_length=0.5}]"#,
+            "process.path.segments",
+            one_segment("curve", &curve),
             "radius must be",
         ),
-        ("process.friction=0", "friction must be > 0"),
+        ("process.friction", 0.0.into(), "friction must be > 0"),
     ] {
-        let loaded = scenario("platform-path", &[set]);
+        let loaded = builtin("platform-path").with(key, value).loaded();
         let err = Twin::new(loaded, &Registry::builtin())
             .err()
-            .unwrap_or_else(|| panic!("{set} must be rejected"));
+            .unwrap_or_else(|| panic!("{key} ({expected}) must be rejected"));
         assert!(err.to_string().contains(expected), "{err}");
     }
 }
@@ -116,11 +124,9 @@ fn a_user_urdf_with_a_bad_wheel_is_an_error_before_the_run() {
         (r#"axis="0 1 0""#, r#"axis="0 0.6 0.8""#, "not planar"),
     ] {
         std::fs::write(dir.join("urdf/platform.urdf"), urdf.replacen(from, to, 1)).unwrap();
-        let loaded = twin::load_scenario(
-            dir.join("scenario.toml").to_str().unwrap(),
-            &Overrides::default(),
-        )
-        .unwrap();
+        let loaded = Scenario::from_file(dir.join("scenario.toml"))
+            .and_then(ScenarioBuilder::build)
+            .unwrap();
         let err = Twin::new(loaded, &Registry::builtin()).err().unwrap();
         assert!(err.to_string().contains(expected), "{err}");
         assert!(err.to_string().contains("left_wheel"), "{err}");
@@ -138,14 +144,14 @@ fn pid_grid_search() {
         for kp_w in [1.0, 2.0, 4.0] {
             for integral_time in [f64::INFINITY, 0.5, 0.1] {
                 let (ki_v, ki_w) = (kp_v / integral_time, kp_w / integral_time);
-                let set = [
-                    format!("controller.params.kp_v={kp_v}"),
-                    format!("controller.params.kp_w={kp_w}"),
-                    format!("controller.params.ki_v={ki_v}"),
-                    format!("controller.params.ki_w={ki_w}"),
-                ];
-                let set: Vec<&str> = set.iter().map(String::as_str).collect();
-                let summary = run_with("platform-path", Some("pid"), &set);
+                let summary = run_built(
+                    builtin("platform-path")
+                        .controller("pid")
+                        .with("controller.params.kp_v", kp_v)
+                        .with("controller.params.kp_w", kp_w)
+                        .with("controller.params.ki_v", ki_v)
+                        .with("controller.params.ki_w", ki_w),
+                );
                 let score = if summary.failure.is_some() {
                     f64::INFINITY
                 } else {

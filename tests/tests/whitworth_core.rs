@@ -1,11 +1,11 @@
 //! The twin core on its first machine: physics against the closed-form kinematics, determinism,
 //! and a diverging run that stops cleanly (the passive linkage's energy: `engine.rs`).
 
-use twin_tests::{run, scenario, scratch};
+use twin_tests::{builtin, run, scratch, Configure};
 
 #[test]
 fn simulated_ram_follows_the_analytic_kinematics_over_whole_turns() {
-    let summary = run(scenario("whitworth-crank-pi", &["duration=3"]), None);
+    let summary = run(builtin("whitworth-crank-pi").duration(3.0).loaded(), None);
     assert!(summary.failure.is_none(), "{:?}", summary.failure);
     let turns = summary.metric("crank_turns").unwrap();
     assert!(
@@ -27,15 +27,15 @@ fn simulated_ram_follows_the_analytic_kinematics_over_whole_turns() {
 
 #[test]
 fn same_inputs_give_bit_identical_series_and_other_inputs_do_not() {
-    let first = run(scenario("whitworth-crank-pi", &["duration=1"]), None);
-    let second = run(scenario("whitworth-crank-pi", &["duration=1"]), None);
+    let one_second = || builtin("whitworth-crank-pi").duration(1.0);
+    let first = run(one_second().loaded(), None);
+    let second = run(one_second().loaded(), None);
     assert_eq!(first.series_digest, second.series_digest);
     assert_eq!(first.metrics, second.metrics);
     let other = run(
-        scenario(
-            "whitworth-crank-pi",
-            &["duration=1", "controller.params.crank_speed=-6.0"],
-        ),
+        one_second()
+            .with("controller.params.crank_speed", -6.0)
+            .loaded(),
         None,
     );
     assert_ne!(first.series_digest, other.series_digest);
@@ -47,10 +47,10 @@ fn a_diverging_run_stops_with_step_time_and_signal_and_keeps_its_recording() {
     let out = dir.join("diverge.rrd");
     // A gravity no linkage survives: the loop closures tear apart within a few steps.
     let summary = run(
-        scenario(
-            "whitworth-crank-pi",
-            &["gravity=[0.0, -1.0e9]", "duration=2"],
-        ),
+        builtin("whitworth-crank-pi")
+            .with("gravity", [0.0, -1.0e9])
+            .duration(2.0)
+            .loaded(),
         Some(&out),
     );
     let failure = summary.failure.expect("the run must diverge");
@@ -78,14 +78,9 @@ fn a_diverging_run_stops_with_step_time_and_signal_and_keeps_its_recording() {
 
 #[test]
 fn control_period_holds_the_effort_between_updates() {
-    let fast = run(scenario("whitworth-crank-pi", &["duration=1"]), None);
-    let held = run(
-        scenario(
-            "whitworth-crank-pi",
-            &["duration=1", "control_period=0.005"],
-        ),
-        None,
-    );
+    let one_second = || builtin("whitworth-crank-pi").duration(1.0);
+    let fast = run(one_second().loaded(), None);
+    let held = run(one_second().with("control_period", 0.005).loaded(), None);
     assert!(held.failure.is_none());
     assert_ne!(fast.series_digest, held.series_digest);
     // Both still turn the crank at about one turn per second.
