@@ -28,16 +28,6 @@ impl Configure for ScenarioBuilder {
     }
 }
 
-/// Loads a built-in scenario with command-line `key=value` assignments (`--set`).
-pub fn scenario(name: &str, set: &[&str]) -> LoadedScenario {
-    set.iter()
-        .try_fold(builtin(name), |builder, assignment| {
-            builder.assign(assignment)
-        })
-        .and_then(ScenarioBuilder::build)
-        .unwrap_or_else(|e| panic!("{e}"))
-}
-
 /// Runs a loaded scenario with the built-in controllers, optionally recording.
 pub fn run(loaded: LoadedScenario, recording: Option<&std::path::Path>) -> RunSummary {
     Twin::new(loaded, &Registry::builtin())

@@ -19,6 +19,7 @@
 //! reference `dq/dl·V_K` and the acceleration reference `d²q/dl²·V_K²`. At the end of the contour
 //! the arm holds the last point.
 
+use crate::event::Event;
 use crate::{ControllerError, Measurement, PlantInterface};
 use models::arm_path::{ArmGeometry, Contour, ContourPath, Elbow, JointPath, PathCursor};
 use serde::Deserialize;
@@ -267,7 +268,7 @@ impl ArmServo {
         period: f64,
         path_speed: f64,
         efforts: &mut [f64],
-    ) -> Option<String> {
+    ) -> Option<Event> {
         let q: [f64; 3] = std::array::from_fn(|i| measurement.get(self.positions[i]));
         let mut event = None;
         let program = &self.design.program;
@@ -284,9 +285,12 @@ impl ArmServo {
                 let elapsed = measurement.time - since;
                 if elapsed >= self.params.approach_time + self.params.settle_time {
                     self.stage = Stage::Machining;
-                    event = Some(format!(
-                        "at the contour's start: machining {:.1} mm",
-                        program.length() * 1e3
+                    event = Some(Event::mode(
+                        "machining",
+                        format!(
+                            "at the contour's start: machining {:.1} mm",
+                            program.length() * 1e3
+                        ),
                     ));
                 }
                 let (approach_time, settle_time) =
@@ -304,7 +308,10 @@ impl ArmServo {
                     program.advance(&mut self.cursor, path_speed * period);
                     if program.finished(&self.cursor) {
                         self.stage = Stage::Finished;
-                        event = Some(format!("contour finished at t = {:.3} s", measurement.time));
+                        event = Some(Event::mode(
+                            "finished",
+                            format!("contour finished at t = {:.3} s", measurement.time),
+                        ));
                     }
                 }
                 let sample = program.sample(&self.cursor);

@@ -1,5 +1,6 @@
 //! The controller interface: measurement in, joint efforts out.
 
+use crate::event::Event;
 use thiserror::Error;
 
 /// What an actuated joint takes as effort.
@@ -115,6 +116,5 @@ pub trait Controller: Send {
     fn internal_values(&self, _values: &mut [f64]) {}
 
     /// Moves the events raised since the last call (mode switches, saturation) into `events`.
-    /// Text starting with "warning" is recorded as a warning, anything else as information.
-    fn drain_events(&mut self, _events: &mut Vec<String>) {}
+    fn drain_events(&mut self, _events: &mut Vec<Event>) {}
 }

@@ -17,6 +17,7 @@
 //! With Q₁ = q₁·I and R = ρ·I the gain is about q₁Δt/ρ·I: a proportional law on the wheel-rate
 //! error, shaped by M* (its coupling term acts when L* ≠ 0 or Q₁ is not scalar).
 
+use crate::event::{Event, EventKind};
 use crate::platform_guidance::{wheel_actuators, Guide};
 use crate::platform_model::PlatformModel;
 use crate::registry::{parse_params, Entry};
@@ -141,7 +142,7 @@ pub struct EnergyOptimal {
     torque: [f64; 2],
     index: f64,
     saturated: bool,
-    events: Vec<String>,
+    events: Vec<Event>,
 }
 
 impl EnergyOptimal {
@@ -202,10 +203,17 @@ impl Controller for EnergyOptimal {
         let u = -self.design.gain * e;
         let saturated = u.iter().any(|v| v.abs() > self.limit);
         if saturated != self.saturated {
+            let subject = "wheel_torque".to_string();
             self.events.push(if saturated {
-                "energy-optimal: wheel torque limited (eq 10)".into()
+                Event::warning(
+                    EventKind::SaturationStart { subject },
+                    "energy-optimal: wheel torque limited (eq 10)",
+                )
             } else {
-                "energy-optimal: wheel torques within U".into()
+                Event::info(
+                    EventKind::SaturationEnd { subject },
+                    "energy-optimal: wheel torques within U",
+                )
             });
             self.saturated = saturated;
         }
@@ -245,7 +253,7 @@ impl Controller for EnergyOptimal {
         ]);
     }
 
-    fn drain_events(&mut self, events: &mut Vec<String>) {
+    fn drain_events(&mut self, events: &mut Vec<Event>) {
         events.append(&mut self.events);
     }
 }

@@ -19,6 +19,7 @@
 //! and so starts cutting at its initial force; once both tools cut the power loop closes. The
 //! reduced model of eq (17) started at those forces is what the run is compared with.
 
+use crate::event::{Event, EventKind};
 use crate::output_feedback_design::{self, Consistency, DesignSpec, GlobalStabilityCheck};
 use crate::registry::{parse_params, Entry};
 use crate::{Controller, ControllerError, Measurement, PlantInterface};
@@ -238,7 +239,7 @@ pub struct LatheForce {
     slide_speed_commands: [f64; TOOLS],
     power_error: f64,
     spindle_speed_error: f64,
-    events: Vec<String>,
+    events: Vec<Event>,
 }
 
 impl LatheForce {
@@ -263,16 +264,19 @@ impl LatheForce {
     }
 
     /// The events a reset raises: how H came about and whether eq (23) holds.
-    fn design_events(&self) -> Vec<String> {
+    fn design_events(&self) -> Vec<Event> {
         let mut events = Vec::new();
         let [h1, h2] = self.design.power_gains;
         if let Some(design) = &self.design.output_feedback {
             let [m1, m2] = design.spec.time_constants;
             let [a, b] = design.output_feedback_poles;
-            events.push(format!(
-                "power gains from m = {m1} / {m2} s: h = {h1:.6e}, {h2:.6e} m/(rev·W); \
+            events.push(Event::info(
+                EventKind::Design,
+                format!(
+                    "power gains from m = {m1} / {m2} s: h = {h1:.6e}, {h2:.6e} m/(rev·W); \
                  Theorem 1 residual {:.3}, closed-loop poles {:.3}{:+.3}i, {:.3}{:+.3}i 1/s",
-                design.consistency_residual, a.re, a.im, b.re, b.im
+                    design.consistency_residual, a.re, a.im, b.re, b.im
+                ),
             ));
         }
         let check = &self.design.global_stability;
@@ -281,11 +285,14 @@ impl LatheForce {
                 if check.power_gains[i] < check.lower_bounds[i] {
                     let line = check.zero_feed_powers[i].unwrap_or(f64::NAN);
                     let (tool, gain, bound) = (i + 1, check.power_gains[i], check.lower_bounds[i]);
-                    events.push(format!(
-                        "warning: eq (23) not met: h_{tool} = {gain:.6e} < −f_n{tool}/P_max = \
+                    events.push(Event::warning(
+                        EventKind::Design,
+                        format!(
+                            "eq (23) not met: h_{tool} = {gain:.6e} < −f_n{tool}/P_max = \
                          {bound:.6e} m/(rev·W); tool {tool}'s zero-feed line (eq (21)) crosses \
                          the positive forces at P = {line:.1} W, so low initial forces may not \
                          reach P_max"
+                        ),
                     ));
                 }
             }
@@ -328,14 +335,21 @@ impl LatheForce {
                 None
             };
             if limit != self.feed_limits[i] {
+                let subject = format!("feed_{}", i + 1);
                 self.events.push(match limit {
-                    Some(which) => format!(
-                        "tool {} commanded feed saturated at {which} (eq (20)) at t = {time:.3} s",
-                        i + 1
+                    Some(which) => Event::info(
+                        EventKind::SaturationStart { subject },
+                        format!(
+                            "tool {} commanded feed saturated at {which} (eq (20)) at t = {time:.3} s",
+                            i + 1
+                        ),
                     ),
-                    None => format!(
-                        "tool {} commanded feed back within eq (20)'s limits at t = {time:.3} s",
-                        i + 1
+                    None => Event::info(
+                        EventKind::SaturationEnd { subject },
+                        format!(
+                            "tool {} commanded feed back within eq (20)'s limits at t = {time:.3} s",
+                            i + 1
+                        ),
                     ),
                 });
                 self.feed_limits[i] = limit;
@@ -412,18 +426,24 @@ impl Controller for LatheForce {
         {
             self.phase = Phase::Approach;
             self.commanded_feeds = self.design.approach_feeds;
-            self.events.push(format!(
+            self.events.push(Event::mode(
+                "approach",
+                format!(
                 "spindle at speed ({speed:.2} rad/s) at t = {:.3} s: slides approach at {:.4e}, \
                  {:.4e} m/rev",
                 measurement.time, self.commanded_feeds[0], self.commanded_feeds[1]
+            ),
             ));
         }
         if self.phase == Phase::Approach && forces.iter().all(|f| *f > CUTTING_FORCE_THRESHOLD) {
             self.phase = Phase::PowerLoop;
-            self.events.push(format!(
+            self.events.push(Event::mode(
+                "power_loop",
+                format!(
                 "both tools cutting at t = {:.3} s (F = {:.1}, {:.1} N, P = {power:.1} W): power \
                  loop closed",
                 measurement.time, forces[0], forces[1]
+            ),
             ));
         }
         if self.phase == Phase::PowerLoop {
@@ -469,7 +489,7 @@ impl Controller for LatheForce {
         ]);
     }
 
-    fn drain_events(&mut self, events: &mut Vec<String>) {
+    fn drain_events(&mut self, events: &mut Vec<Event>) {
         events.append(&mut self.events);
     }
 }
@@ -477,7 +497,7 @@ impl Controller for LatheForce {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::{Actuator, EffortKind, Registry};
+    use crate::{Actuator, EffortKind, EventLevel, Registry};
 
     fn plant() -> PlantInterface {
         let actuator = |joint: &str, kind, limit| Actuator {
@@ -526,7 +546,7 @@ mod tests {
         ]
     }
 
-    fn events(controller: &mut LatheForce) -> Vec<String> {
+    fn events(controller: &mut LatheForce) -> Vec<Event> {
         let mut events = Vec::new();
         controller.drain_events(&mut events);
         events
@@ -590,9 +610,9 @@ mod tests {
         controller.reset(&plant()).unwrap();
         let reset_events = events(&mut controller);
         assert!(
-            reset_events
-                .iter()
-                .any(|e| e.contains("eq (23) not met: h_2")),
+            reset_events.iter().any(|e| e.kind == EventKind::Design
+                && e.level == EventLevel::Warning
+                && e.text.contains("eq (23) not met: h_2")),
             "{reset_events:?}"
         );
         let step = |controller: &mut LatheForce, power: f64, forces: [f64; 2]| {
@@ -619,16 +639,19 @@ mod tests {
         assert!((controller.commanded_feeds[0] - expected).abs() < 1e-15);
         let saturated = events(&mut controller);
         assert!(
-            saturated
-                .iter()
-                .any(|e| e.contains("tool 2 commanded feed saturated at zero feed")),
+            saturated.iter().any(|e| e.kind
+                == EventKind::SaturationStart {
+                    subject: "feed_2".into()
+                }
+                && e.text.contains("at zero feed")),
             "{saturated:?}"
         );
         step(&mut controller, 20e3, [2546.0, 1273.0]);
         assert!((controller.commanded_feeds[1] - nominal[1]).abs() < 1e-15);
-        assert!(events(&mut controller)
-            .iter()
-            .any(|e| e.contains("tool 2 commanded feed back within")));
+        assert!(events(&mut controller).iter().any(|e| e.kind
+            == EventKind::SaturationEnd {
+                subject: "feed_2".into()
+            }));
     }
 
     #[test]

@@ -6,11 +6,13 @@
 
 pub mod controller;
 pub mod design;
+pub mod event;
 pub mod registry;
 
 pub use controller::{
     Actuator, Controller, ControllerError, EffortKind, Measurement, PlantInterface,
 };
+pub use event::{Event, EventKind, EventLevel};
 pub use registry::{parse_params, Registry};
 
 pub mod arm_servo;

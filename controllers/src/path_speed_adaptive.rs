@@ -16,6 +16,7 @@
 //! (notes in `twin/src/machines/arm.rs`).
 
 use crate::arm_servo::{ArmServo, ServoParams};
+use crate::event::Event;
 use crate::filters::FirstOrderFilter;
 use crate::registry::{parse_params, Entry};
 use crate::{Controller, ControllerError, Measurement, PlantInterface};
@@ -121,7 +122,7 @@ pub struct PathSpeedAdaptive {
     /// Time of the last overload, and whether the correction is engaged (for events).
     last_overload: f64,
     engaged: bool,
-    events: Vec<String>,
+    events: Vec<Event>,
 }
 
 impl PathSpeedAdaptive {
@@ -205,15 +206,20 @@ impl Controller for PathSpeedAdaptive {
                 self.last_overload = measurement.time;
                 if !self.engaged {
                     self.engaged = true;
-                    self.events.push(format!(
-                        "path speed correction engaged: {} current over {tolerance} A",
-                        MOTORS[m]
+                    self.events.push(Event::mode(
+                        "correction_engaged",
+                        format!(
+                            "path speed correction engaged: {} current over {tolerance} A",
+                            MOTORS[m]
+                        ),
                     ));
                 }
             } else if self.engaged && measurement.time - self.last_overload >= RELEASE_AFTER {
                 self.engaged = false;
-                self.events
-                    .push("path speed correction released: no motor overloaded".into());
+                self.events.push(Event::mode(
+                    "correction_released",
+                    "path speed correction released: no motor overloaded",
+                ));
             }
         } else {
             self.demand = 0.0;
@@ -257,7 +263,7 @@ impl Controller for PathSpeedAdaptive {
         values[11..14].copy_from_slice(&self.servo.commands);
     }
 
-    fn drain_events(&mut self, events: &mut Vec<String>) {
+    fn drain_events(&mut self, events: &mut Vec<Event>) {
         events.append(&mut self.events);
     }
 }
@@ -370,7 +376,8 @@ mod tests {
         assert!(
             events
                 .iter()
-                .any(|e| e.contains("shoulder current over 18")),
+                .any(|e| e.mode_entered() == Some("correction_engaged")
+                    && e.text.contains("shoulder current over 18")),
             "{events:?}"
         );
     }

@@ -9,6 +9,7 @@
 //! the adaptive controller's, with `V_II = path_speed` throughout.
 
 use crate::arm_servo::{ArmServo, ServoParams};
+use crate::event::Event;
 use crate::filters::FirstOrderFilter;
 use crate::path_speed_adaptive::PAPER_PATH_SPEED_MM_S;
 use crate::registry::{parse_params, Entry};
@@ -46,7 +47,7 @@ pub struct PathSpeedConstant {
     speed: f64,
     speed_filter: FirstOrderFilter,
     path_speed: f64,
-    events: Vec<String>,
+    events: Vec<Event>,
 }
 
 impl PathSpeedConstant {
@@ -143,7 +144,7 @@ impl Controller for PathSpeedConstant {
         values[5..8].copy_from_slice(&self.servo.commands);
     }
 
-    fn drain_events(&mut self, events: &mut Vec<String>) {
+    fn drain_events(&mut self, events: &mut Vec<Event>) {
         events.append(&mut self.events);
     }
 }

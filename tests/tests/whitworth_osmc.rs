@@ -2,14 +2,13 @@
 //! velocity against the 400 N contact force with full crank turns, and the tracking comparison of
 //! its Fig. 8.
 
-use controllers::{Controller, ControllerError, Measurement, PlantInterface, Registry};
-use std::sync::{Arc, Mutex};
-use twin::{Overrides, Twin};
-use twin_tests::{run, scenario};
+use controllers::Registry;
+use twin::{Observer, ObserverError, SignalLayout, StepView, Twin};
+use twin_tests::{builtin, run, Configure};
 
 #[test]
 fn osmc_cuts_at_constant_velocity_against_the_contact_force() {
-    let summary = run(scenario("whitworth-cutting", &[]), None);
+    let summary = run(builtin("whitworth-cutting").loaded(), None);
     assert!(summary.failure.is_none(), "{:?}", summary.failure);
     let metric = |name: &str| summary.metric(name).unwrap_or_else(|| panic!("no {name}"));
     let cuts = metric("cuts");
@@ -35,65 +34,61 @@ fn osmc_cuts_at_constant_velocity_against_the_contact_force() {
     );
 }
 
-/// Mean of (L·(y_d − y))² over the run's last `window` seconds, L = 100 (the paper's §6.1 MSE),
-/// from the signals the controller measured.
-struct MseProbe {
-    inner: Box<dyn Controller>,
-    window_start: f64,
-    indices: (usize, usize),
-    sum: Arc<Mutex<(f64, usize)>>,
-}
-
-impl Controller for MseProbe {
-    fn name(&self) -> &str {
-        self.inner.name()
-    }
-
-    fn reset(&mut self, plant: &PlantInterface) -> Result<(), ControllerError> {
-        self.indices = (plant.signal("reference")?, plant.signal("ram_position")?);
-        self.inner.reset(plant)
-    }
-
-    fn update(&mut self, measurement: &Measurement, period: f64, efforts: &mut [f64]) {
-        if measurement.time >= self.window_start {
-            let error = 100.0 * (measurement.get(self.indices.0) - measurement.get(self.indices.1));
-            let mut sum = self.sum.lock().unwrap();
-            sum.0 += error * error;
-            sum.1 += 1;
-        }
-        self.inner.update(measurement, period, efforts);
-    }
-}
-
+/// The scenario's `tracking_mse`: the mean of (L·(y_d − y))² over the run's last 2 s, L = 100
+/// (the paper's §6.1 MSE), from the signals the controller measured.
 fn tracking_mse(controller: &str) -> f64 {
-    let loaded = twin::load_scenario(
-        "whitworth-tracking",
-        &Overrides {
-            controller: Some(controller.into()),
-            ..Default::default()
-        },
-    )
-    .unwrap();
-    let inner = Registry::builtin()
-        .build(controller, &loaded.scenario.controller.params)
-        .unwrap();
-    let sum = Arc::new(Mutex::new((0.0, 0)));
-    let probe = MseProbe {
-        inner,
-        window_start: loaded.scenario.duration - 2.0,
-        indices: (0, 0),
-        sum: Arc::clone(&sum),
-    };
-    let summary = Twin::with_controller(loaded, Box::new(probe))
-        .and_then(|t| t.run(None))
-        .unwrap();
+    let loaded = builtin("whitworth-tracking")
+        .controller(controller)
+        .loaded();
+    let summary = run(loaded, None);
     assert!(
         summary.failure.is_none(),
         "{controller}: {:?}",
         summary.failure
     );
-    let (total, samples) = *sum.lock().unwrap();
-    total / samples as f64
+    summary
+        .metric("tracking_mse")
+        .expect("declared in the scenario")
+}
+
+/// The same figure by hand, from an observer of the measured reference and ram position: the
+/// scenario's evaluator agrees with it to the bit.
+#[derive(Default)]
+struct MseByHand {
+    indices: Option<(usize, usize)>,
+    sum: f64,
+    samples: usize,
+}
+
+impl Observer for MseByHand {
+    fn start(&mut self, layout: &SignalLayout) -> Result<(), ObserverError> {
+        self.indices = layout
+            .signal("reference")
+            .zip(layout.signal("ram_position"));
+        Ok(())
+    }
+
+    fn observe(&mut self, view: &StepView) -> Result<(), ObserverError> {
+        let (r, y) = self.indices.ok_or("no reference or ram position")?;
+        if view.control_update && view.time >= 2.0 {
+            let error = 100.0 * (view.measured[r] - view.measured[y]);
+            self.sum += error * error;
+            self.samples += 1;
+        }
+        Ok(())
+    }
+}
+
+#[test]
+fn the_declared_tracking_mse_is_the_papers_formula() {
+    let loaded = builtin("whitworth-tracking").duration(2.5).loaded();
+    let mut by_hand = MseByHand::default();
+    let summary = Twin::new(loaded, &Registry::builtin())
+        .and_then(|twin| twin.run_with(None, &mut [&mut by_hand]))
+        .unwrap();
+    let declared = summary.metric("tracking_mse").unwrap();
+    assert_eq!(by_hand.samples, 501, "2.0 s to 2.5 s at 1 kHz");
+    assert_eq!(declared, by_hand.sum / by_hand.samples as f64);
 }
 
 #[test]

@@ -5,6 +5,7 @@
 
 pub mod analysis;
 pub mod energy;
+pub mod evaluate;
 pub mod machines;
 pub mod mechanism;
 pub mod output;
@@ -17,7 +18,10 @@ pub mod sensors;
 pub mod summary;
 pub mod urdf;
 
-pub use run::{Divergence, Interruption, RunSummary, StopFlag, Twin, TwinError};
+pub use run::{
+    Divergence, Findings, Interruption, Observer, ObserverError, RunSummary, SignalLayout,
+    StepView, StopFlag, Twin, TwinError,
+};
 pub use scenario::{
     load as load_scenario, LoadedScenario, Overrides, Scenario, ScenarioBuilder, ScenarioValue,
 };

@@ -1,6 +1,7 @@
 //! Scenarios: a TOML file naming the machine, its URDF, the controller and its parameters, the
 //! reference, process parameters, sensors, timing and recording options.
 
+use crate::evaluate::MetricSpec;
 use crate::sensors::SensorSpec;
 use controllers::registry::{describe_toml_error, from_table, shortened};
 use models::reference::Reference;
@@ -129,6 +130,9 @@ pub struct Scenario {
     pub recording: RecordingOptions,
     #[serde(default)]
     pub health: HealthLimits,
+    /// The figures the run is judged by (`[[metrics]]`), computed by evaluators.
+    #[serde(default)]
+    pub metrics: Vec<MetricSpec>,
 }
 
 #[derive(Debug, Clone, Deserialize, PartialEq)]
@@ -233,6 +237,12 @@ impl Scenario {
         }
         if let Some(reference) = &self.reference {
             reference.validate()?;
+        }
+        for (i, metric) in self.metrics.iter().enumerate() {
+            metric.validate()?;
+            if self.metrics[..i].iter().any(|m| m.name == metric.name) {
+                return Err(format!("metrics `{}`: named twice", metric.name));
+            }
         }
         Ok(())
     }

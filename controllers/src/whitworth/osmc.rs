@@ -317,7 +317,7 @@ mod tests {
         assert!(
             events
                 .iter()
-                .filter(|e| e.starts_with("return stroke part 1"))
+                .filter(|e| e.mode_entered() == Some("return_stroke_1"))
                 .count()
                 >= 3
         );

@@ -53,6 +53,16 @@ impl Mode {
             Mode::ReturnPart2 => 3.0,
         }
     }
+
+    /// The mode's identifier in [`crate::EventKind::ModeSwitch`] events.
+    pub fn identifier(self) -> &'static str {
+        match self {
+            Mode::Tracking => "tracking",
+            Mode::Cutting => "cutting_stroke",
+            Mode::ReturnPart1 => "return_stroke_1",
+            Mode::ReturnPart2 => "return_stroke_2",
+        }
+    }
 }
 
 /// Dead band on the ram speed for the sign comparison, m/s.

@@ -21,6 +21,7 @@
 
 use super::slider::SliderModel;
 use super::switching::{Mode, ReturnPlan, StrokeSwitch};
+use crate::event::Event;
 use crate::{Controller, ControllerError, Measurement, PlantInterface};
 use models::velocity_profile::{ProfileParams, ProfileSample, VelocityProfile};
 use models::whitworth::Geometry;
@@ -176,7 +177,7 @@ pub struct TaskController<L> {
     force: f64,
     rho_hat: f64,
     torque: f64,
-    events: Vec<String>,
+    events: Vec<Event>,
 }
 
 /// The controller-independent internal signals, in order.
@@ -228,7 +229,7 @@ impl<L: TaskLaw> TaskController<L> {
 
     fn enter(&mut self, mode: Mode) {
         let plan = &self.design.return_plan;
-        self.events.push(match mode {
+        let text = match mode {
             Mode::Tracking => format!("tracking the scenario reference: {}", self.law.label()),
             Mode::Cutting => format!("cutting stroke: {}", self.law.label()),
             Mode::ReturnPart1 => format!(
@@ -239,7 +240,8 @@ impl<L: TaskLaw> TaskController<L> {
                 "return stroke part 2: open loop, τ = {:+.2} N·m",
                 plan.part2_torque
             ),
-        });
+        };
+        self.events.push(Event::mode(mode.identifier(), text));
         self.mode = Some(mode);
     }
 
@@ -387,7 +389,7 @@ impl<L: TaskLaw> Controller for TaskController<L> {
         self.law.internal_values(own);
     }
 
-    fn drain_events(&mut self, events: &mut Vec<String>) {
+    fn drain_events(&mut self, events: &mut Vec<Event>) {
         events.append(&mut self.events);
     }
 }
@@ -475,15 +477,21 @@ mod tests {
         tracking.run(&mut controller, 0.002, 1e-3);
         let mut events = Vec::new();
         controller.drain_events(&mut events);
-        assert_eq!(events, ["tracking the scenario reference: OSMC"]);
+        assert_eq!(
+            events,
+            [Event::mode(
+                "tracking",
+                "tracking the scenario reference: OSMC"
+            )]
+        );
 
         let mut controller = osmc(TaskParams::default()).unwrap();
         controller.reset(&Plant::twin().interface()).unwrap();
         Plant::twin().run(&mut controller, 0.002, 1e-3);
         controller.drain_events(&mut events);
         assert_eq!(
-            events.last().map(String::as_str),
-            Some("cutting stroke: OSMC")
+            events.last().map(|e| (e.mode_entered(), e.text.as_str())),
+            Some((Some("cutting_stroke"), "cutting stroke: OSMC"))
         );
 
         let mut controller = osmc(TaskParams {

@@ -17,18 +17,15 @@
 //! load for the step and is recorded as the diagnostic `cutting_force` (N; zero without the cut).
 //! `[process.cut]` holds its parameters (SI; defaults: the paper's cutting conditions).
 //!
-//! **Tracking.** The machine judges the axis against the programmed path, the scenario's
-//! `[reference]` (the interpolator hands the controller the programmed path unchanged; without a
-//! reference there are no tracking figures). Every physics step from
-//! `metrics_from` (s, default 0: the start transient is part of the paper's Table I) it takes the
-//! true position error `x_path − x` and velocity error `ẋ_path − ẋ`, recorded as diagnostics, and
-//! reports their largest magnitude and standard deviation — the columns of Table I, in m and m/s.
+//! **Tracking** is judged outside the machine: the scenario's `[[metrics]]` take the true errors
+//! `reference − table.position` and `reference_rate − table.velocity` (the programmed path is the
+//! scenario's `[reference]`, handed to the controller unchanged) and report their largest
+//! magnitude and σ, the columns of Table I (see `twin::evaluate`).
 
 use super::{joint, process_params, Machine, MachineError};
 use crate::mechanism::{JointMotion, Mechanism, Pose2};
 use crate::physics::{Load, MechanismState, NO_DAMPING};
 use models::micromilling::{MicroMillingCut, MicroMillingParams};
-use models::reference::Reference;
 use serde::Deserialize;
 
 const MACHINE: &str = "feed_axis";
@@ -48,8 +45,6 @@ struct ProcessParams {
     force_constant: f64,
     /// Peak current of the amplifier, A.
     current_limit: f64,
-    /// Start of the window of the tracking figures, s.
-    metrics_from: f64,
 }
 
 impl Default for ProcessParams {
@@ -60,7 +55,6 @@ impl Default for ProcessParams {
             amplifier_gain: 2.0,
             force_constant: 50.0,
             current_limit: 10.0,
-            metrics_from: 0.0,
         }
     }
 }
@@ -90,38 +84,6 @@ impl Drive {
     }
 }
 
-/// Largest magnitude and standard deviation of a signal, updated sample by sample (Welford).
-#[derive(Debug, Clone, Copy, Default)]
-struct ErrorStatistics {
-    count: usize,
-    mean: f64,
-    sum_of_squares: f64,
-    max: f64,
-}
-
-impl ErrorStatistics {
-    fn add(&mut self, value: f64) {
-        self.count += 1;
-        let delta = value - self.mean;
-        self.mean += delta / self.count as f64;
-        self.sum_of_squares += delta * (value - self.mean);
-        self.max = self.max.max(value.abs());
-    }
-
-    fn sigma(&self) -> f64 {
-        (self.sum_of_squares / self.count.max(1) as f64).sqrt()
-    }
-}
-
-/// The programmed path and the errors against it.
-#[derive(Debug, Clone)]
-struct Tracking {
-    path: Reference,
-    from: f64,
-    position: ErrorStatistics,
-    velocity: ErrorStatistics,
-}
-
 pub struct FeedAxis {
     table_joint: usize,
     table_link: usize,
@@ -135,15 +97,10 @@ pub struct FeedAxis {
     cut: Option<MicroMillingCut>,
     cutting_force: f64,
     cutting_force_peak: f64,
-    tracking: Option<Tracking>,
 }
 
 impl FeedAxis {
-    pub fn new(
-        mechanism: &Mechanism,
-        process: &toml::Table,
-        reference: Option<Reference>,
-    ) -> Result<Self, MachineError> {
+    pub fn new(mechanism: &Mechanism, process: &toml::Table) -> Result<Self, MachineError> {
         let bad = |reason: String| MachineError::BadParameters {
             machine: MACHINE.into(),
             reason,
@@ -157,12 +114,6 @@ impl FeedAxis {
             if !(value > 0.0 && value.is_finite()) {
                 return Err(bad(format!("{name} must be finite and > 0, got {value}")));
             }
-        }
-        if !(params.metrics_from >= 0.0 && params.metrics_from.is_finite()) {
-            return Err(bad(format!(
-                "metrics_from must be finite and ≥ 0, got {}",
-                params.metrics_from
-            )));
         }
         // Checked whether or not it cuts: a bad [process.cut] is an error either way.
         let cut = MicroMillingCut::new(params.cut).map_err(|e| bad(format!("cut: {e}")))?;
@@ -204,12 +155,6 @@ impl FeedAxis {
             cut: params.cutting.then_some(cut),
             cutting_force: 0.0,
             cutting_force_peak: 0.0,
-            tracking: reference.map(|path| Tracking {
-                path,
-                from: params.metrics_from,
-                position: ErrorStatistics::default(),
-                velocity: ErrorStatistics::default(),
-            }),
         })
     }
 }
@@ -220,11 +165,7 @@ impl Machine for FeedAxis {
     }
 
     fn diagnostic_names(&self) -> Vec<String> {
-        let mut names = vec!["cutting_force".to_string()];
-        if self.tracking.is_some() {
-            names.extend(["position_error".into(), "velocity_error".into()]);
-        }
-        names
+        vec!["cutting_force".to_string()]
     }
 
     fn measure(
@@ -234,7 +175,6 @@ impl Machine for FeedAxis {
         signals: &mut [f64],
         diagnostics: &mut [f64],
     ) {
-        let position = state.joint_positions[self.table_joint];
         let velocity = state.joint_velocities[self.table_joint];
         signals[0] = self.drive.current;
         self.cutting_force = self
@@ -243,17 +183,6 @@ impl Machine for FeedAxis {
             .map_or(0.0, |cut| cut.force_on_axis(time, velocity));
         self.cutting_force_peak = self.cutting_force_peak.max(self.cutting_force.abs());
         diagnostics[0] = self.cutting_force;
-        if let Some(tracking) = self.tracking.as_mut() {
-            let target = tracking.path.sample(time);
-            let position_error = target.position - position;
-            let velocity_error = target.rate - velocity;
-            diagnostics[1] = position_error;
-            diagnostics[2] = velocity_error;
-            if time >= tracking.from {
-                tracking.position.add(position_error);
-                tracking.velocity.add(velocity_error);
-            }
-        }
     }
 
     fn drive(&mut self, _dt: f64, commanded: &[f64], applied: &mut [f64]) {
@@ -278,16 +207,7 @@ impl Machine for FeedAxis {
     }
 
     fn metrics(&self) -> Vec<(String, f64)> {
-        let mut metrics = Vec::new();
-        if let Some(tracking) = &self.tracking {
-            metrics.extend([
-                ("position_error_max".into(), tracking.position.max),
-                ("position_error_sigma".into(), tracking.position.sigma()),
-                ("velocity_error_max".into(), tracking.velocity.max),
-                ("velocity_error_sigma".into(), tracking.velocity.sigma()),
-            ]);
-        }
-        metrics.push(("peak_current".into(), self.drive.peak_current));
+        let mut metrics = vec![("peak_current".to_string(), self.drive.peak_current)];
         metrics.push((
             "current_limited_fraction".into(),
             self.drive.limited_steps as f64 / self.drive.steps.max(1) as f64,

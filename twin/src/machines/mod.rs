@@ -10,7 +10,6 @@ mod whitworth;
 use crate::mechanism::Mechanism;
 use crate::physics::{Load, MechanismState};
 use controllers::Actuator;
-use models::reference::Reference;
 use thiserror::Error;
 
 #[derive(Debug, Error, Clone, PartialEq)]
@@ -70,7 +69,9 @@ pub trait Machine {
     /// Process loads (cutting, contact) acting during the coming step.
     fn loads(&mut self, _time: f64, _state: &MechanismState, _loads: &mut Vec<Load>) {}
 
-    /// Figures of the run so far, by name.
+    /// Figures of the machine's process that need its own state (cuts made, contour finished),
+    /// by name. Figures judged from signals are the scenario's `[[metrics]]`, computed by
+    /// evaluators outside the machine.
     fn metrics(&self) -> Vec<(String, f64)>;
 }
 
@@ -78,20 +79,16 @@ pub trait Machine {
 pub const MACHINES: &[&str] = &["arm", "whitworth", "feed_axis", "platform", "lathe"];
 
 /// Builds the machine `name` on `mechanism` with the scenario's `[process]` table.
-/// The scenario's `reference` is the programmed motion a machine may judge its tracking against.
 pub fn build(
     name: &str,
     mechanism: &Mechanism,
     process: &toml::Table,
-    reference: Option<Reference>,
 ) -> Result<Box<dyn Machine>, MachineError> {
     match name {
         "arm" => Ok(Box::new(arm::Arm::new(mechanism, process)?)),
         "whitworth" => Ok(Box::new(whitworth::Whitworth::new(mechanism, process)?)),
         "platform" => Ok(Box::new(platform::Platform::new(mechanism, process)?)),
-        "feed_axis" => Ok(Box::new(feed_axis::FeedAxis::new(
-            mechanism, process, reference,
-        )?)),
+        "feed_axis" => Ok(Box::new(feed_axis::FeedAxis::new(mechanism, process)?)),
         "lathe" => Ok(Box::new(lathe::ParallelLathe::new(mechanism, process)?)),
         _ => Err(MachineError::Unknown {
             name: name.to_string(),

@@ -398,7 +398,12 @@ impl Machine for Platform {
     fn metrics(&self) -> Vec<(String, f64)> {
         let f = &self.figures;
         let n = f.samples.max(1) as f64;
-        vec![
+        // The floor as run: each wheel's tyre friction (the URDF's, or `process.friction`).
+        let friction = self
+            .wheels
+            .iter()
+            .map(|w| (format!("wheel_friction/{}", w.name), w.friction));
+        let mut metrics = vec![
             ("heading_error_max".into(), f.heading_error_max),
             (
                 "heading_error_rms".into(),
@@ -416,6 +421,8 @@ impl Machine for Platform {
             ("wheel_slip_max".into(), f.slip_max),
             ("motor_current_max".into(), f.current_max),
             ("path_duration".into(), self.path.duration()),
-        ]
+        ];
+        metrics.extend(friction);
+        metrics
     }
 }

@@ -24,6 +24,7 @@ mod plots;
 mod salvage;
 mod writer;
 
+pub use controllers::EventLevel;
 pub use plots::{write_plot, Plot2D, PlotGeometry, PlotLayer};
 pub use salvage::{salvage, SalvageReport};
 
@@ -104,13 +105,6 @@ pub enum LiveViewer {
 pub struct SeriesGroup {
     pub path: String,
     pub names: Vec<String>,
-}
-
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum EventLevel {
-    Info,
-    Warning,
-    Error,
 }
 
 #[derive(Debug, thiserror::Error)]

@@ -27,7 +27,7 @@
 
 use super::{Claim, Report, ReproduceError, Verdict};
 use crate::run::{RunSummary, Twin, TwinError};
-use crate::scenario::{self, Overrides};
+use crate::scenario::{Scenario, ScenarioBuilder};
 use crate::summary;
 use controllers::Registry;
 use std::path::Path;
@@ -155,12 +155,10 @@ pub fn run(out_dir: &Path, registry: &Registry) -> Result<Report, ReproduceError
     let mut records = Vec::new();
     for controller in CONTROLLERS {
         for cutting in [false, true] {
-            let overrides = Overrides {
-                controller: Some(controller.into()),
-                set: vec![format!("process.cutting={cutting}")],
-                ..Default::default()
-            };
-            let loaded = scenario::load(SCENARIO, &overrides).map_err(TwinError::from)?;
+            let loaded = Scenario::builtin(SCENARIO)
+                .and_then(|s| s.controller(controller).set("process.cutting", cutting))
+                .and_then(ScenarioBuilder::build)
+                .map_err(TwinError::from)?;
             let file = format!("{SCENARIO}-{controller}-{}.rrd", condition(cutting));
             let result = Twin::new(loaded, registry)?.run(Some(&out_dir.join(&file)))?;
             let mut record = summary::to_json(&result);

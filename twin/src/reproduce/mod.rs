@@ -88,6 +88,9 @@ pub enum ReproduceError {
     Twin(#[from] TwinError),
     #[error("cannot write {path}: {reason}")]
     Output { path: String, reason: String },
+    /// A search over runs (the arm's safe path speed) found no answer.
+    #[error("{0}")]
+    Search(String),
 }
 
 /// Runs every scenario of `paper`, writing recordings and `report.json` into `out_dir`.

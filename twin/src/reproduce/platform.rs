@@ -16,7 +16,7 @@
 
 use super::{Claim, Report, ReproduceError, Verdict};
 use crate::run::{RunSummary, Twin, TwinError};
-use crate::scenario::{self, Overrides};
+use crate::scenario::{Scenario, ScenarioBuilder};
 use crate::summary;
 use controllers::Registry;
 use std::path::Path;
@@ -53,16 +53,14 @@ pub fn run(out_dir: &Path, registry: &Registry) -> Result<Report, ReproduceError
         .flat_map(|p| CONTROLLERS.map(|c| (*p, c, false)))
         .chain(CONTROLLERS.map(|c| ("platform-path-s", c, true)));
     for (scenario_name, controller, slippery) in cases {
-        let overrides = Overrides {
-            controller: Some(controller.into()),
-            set: if slippery {
-                vec![format!("process.friction={SLIPPERY}")]
-            } else {
-                Vec::new()
-            },
-            ..Default::default()
-        };
-        let loaded = scenario::load(scenario_name, &overrides).map_err(TwinError::from)?;
+        let loaded = Scenario::builtin(scenario_name)
+            .map(|s| s.controller(controller))
+            .and_then(|s| match slippery {
+                true => s.set("process.friction", SLIPPERY),
+                false => Ok(s),
+            })
+            .and_then(ScenarioBuilder::build)
+            .map_err(TwinError::from)?;
         let suffix = if slippery { "-slippery" } else { "" };
         let file = format!("{scenario_name}-{controller}{suffix}.rrd");
         let result = Twin::new(loaded, registry)?.run(Some(&out_dir.join(&file)))?;
@@ -179,6 +177,9 @@ fn slip(runs: &[Run]) -> Claim {
         find(runs, "platform-path-s", controller, slippery).metric("wheel_slip_max")
     };
     let drift = |controller: &str| find(runs, "platform-path-s", controller, true).odometry_drift();
+    let friction = |slippery: bool| {
+        find(runs, "platform-path-s", "pid", slippery).metric("wheel_friction/left_wheel")
+    };
     let ratios =
         [false, true].map(|slippery| peak("pid", slippery) / peak("energy-optimal", slippery));
     let verdict = if ratios.iter().all(|r| *r > 2.0) {
@@ -192,11 +193,14 @@ fn slip(runs: &[Run]) -> Claim {
         claim: "slip a serious problem for the PID (Fig. 10 path)".into(),
         paper: "PID inaccurate, slippage a serious problem".into(),
         twin: format!(
-            "peak slip PID/energy-optimal: μ = 0.8 {:.2e}/{:.2e}, μ = {SLIPPERY} {:.2e}/{:.2e}; odometry drift at μ = {SLIPPERY}: {:.1} / {:.1} mm",
+            "peak slip PID/energy-optimal: μ = {} {:.2e}/{:.2e}, μ = {} {:.2e}/{:.2e}; odometry drift at μ = {}: {:.1} / {:.1} mm",
+            friction(false),
             peak("pid", false),
             peak("energy-optimal", false),
+            friction(true),
             peak("pid", true),
             peak("energy-optimal", true),
+            friction(true),
             drift("pid") * 1e3,
             drift("energy-optimal") * 1e3
         ),

@@ -64,6 +64,8 @@ pub struct Cutting {
     stroke: Option<f64>,
     cut_starts: Vec<f64>,
     return_starts: Vec<f64>,
+    /// Cutting over return stroke time at constant crank speed, from the geometry alone.
+    geometric_quick_return_ratio: f64,
 }
 
 impl Cutting {
@@ -92,6 +94,7 @@ impl Cutting {
             stroke: None,
             cut_starts: Vec::new(),
             return_starts: Vec::new(),
+            geometric_quick_return_ratio: stroke.quick_return_ratio(),
         })
     }
 
@@ -169,8 +172,18 @@ impl Cutting {
             for pass in &self.passes[1..] {
                 later.merge(pass);
             }
+            // The headline figures: as a share of the cutting speed |v|, %.
+            let percent = 100.0 / self.workpiece.cutting_velocity.abs();
             metrics.push(("velocity_error_rms/after_first_cut".into(), later.rms()));
             metrics.push(("velocity_error_max/after_first_cut".into(), later.max));
+            metrics.push((
+                "velocity_error_rms_percent/after_first_cut".into(),
+                percent * later.rms(),
+            ));
+            metrics.push((
+                "velocity_error_max_percent/after_first_cut".into(),
+                percent * later.max,
+            ));
         }
         let cycles = self.cycles();
         if !cycles.is_empty() {
@@ -183,6 +196,10 @@ impl Cutting {
             metrics.push(("return_stroke_time".into(), returning));
             metrics.push(("quick_return_ratio".into(), cutting / returning));
         }
+        metrics.push((
+            "geometric_quick_return_ratio".into(),
+            self.geometric_quick_return_ratio,
+        ));
         metrics
     }
 }

@@ -1,0 +1,84 @@
+//! Events: what happened during a run, for a person (`text`) and for a program (`kind`).
+
+/// How serious an event is.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub enum EventLevel {
+    Info,
+    Warning,
+    Error,
+}
+
+/// What an event is, for a program to match (never the text).
+#[derive(Debug, Clone, PartialEq, Eq, Hash)]
+pub enum EventKind {
+    /// A controller entered another mode or phase; `mode` is its identifier in snake case
+    /// (`cutting_stroke`, `power_loop`, `correction_engaged`, …), listed on each controller.
+    ModeSwitch { mode: String },
+    /// A command reached a limit (an effort clipped to its actuator limit, a feed bound); the
+    /// subject is the actuator's joint or the limited quantity.
+    SaturationStart { subject: String },
+    /// A command that was at its limit is back within it.
+    SaturationEnd { subject: String },
+    /// What a controller designed at reset (gains, poles) or a condition its design does not meet.
+    Design,
+    /// A fault was injected or cleared.
+    Fault,
+    /// The run diverged: a signal left its bounds (the summary's `failure`).
+    Divergence,
+    /// The run was stopped on request (a signal).
+    Interruption,
+    /// Anything else worth a line in the log.
+    Note,
+}
+
+/// One event: its level, its kind and the sentence a person reads.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Event {
+    pub level: EventLevel,
+    pub kind: EventKind,
+    pub text: String,
+}
+
+impl Event {
+    pub fn info(kind: EventKind, text: impl Into<String>) -> Self {
+        Self {
+            level: EventLevel::Info,
+            kind,
+            text: text.into(),
+        }
+    }
+
+    pub fn warning(kind: EventKind, text: impl Into<String>) -> Self {
+        Self {
+            level: EventLevel::Warning,
+            kind,
+            text: text.into(),
+        }
+    }
+
+    pub fn error(kind: EventKind, text: impl Into<String>) -> Self {
+        Self {
+            level: EventLevel::Error,
+            kind,
+            text: text.into(),
+        }
+    }
+
+    /// A mode switch into `mode`, at information level.
+    pub fn mode(mode: &str, text: impl Into<String>) -> Self {
+        Self::info(
+            EventKind::ModeSwitch {
+                mode: mode.to_string(),
+            },
+            text,
+        )
+    }
+
+    /// The mode entered, if this is a mode switch.
+    pub fn mode_entered(&self) -> Option<&str> {
+        match &self.kind {
+            EventKind::ModeSwitch { mode } => Some(mode),
+            _ => None,
+        }
+    }
+}

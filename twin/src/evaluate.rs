@@ -1,0 +1,268 @@
+//! Evaluators: the figures a scenario is judged by, declared in its `[[metrics]]` tables and
+//! computed by observers of the run, apart from the machine that is simulated.
+//!
+//! Each entry names a signal `x` (and optionally a `reference` `r`, making the judged value the
+//! error `e = scale·(r − x)`, else `e = scale·x`), a window `from ≤ t ≤ to` and a kind:
+//!
+//! | kind          | figure                                            | unit             |
+//! |---------------|---------------------------------------------------|------------------|
+//! | `mse`         | (1/N) Σ e²                                        | (scale·unit of x)² |
+//! | `rms`         | √((1/N) Σ e²)                                     | scale·unit of x  |
+//! | `mean`        | (1/N) Σ e                                         | scale·unit of x  |
+//! | `std`         | √((1/N) Σ (e − ē)²) (population σ, Welford)       | scale·unit of x  |
+//! | `max_abs`     | max \|e\| (a peak)                                | scale·unit of x  |
+//! | `max`, `min`  | max e, min e                                      | scale·unit of x  |
+//! | `final`       | e at the window's last sample                     | scale·unit of x  |
+//! | `settle_time` | t₁ − from, t₁ the first sample from which \|e\| ≤ `band` to the window's end (NaN if \|e\| > band at the end) | s |
+//!
+//! Signals are named as in the run's [`SignalLayout`]: a plant signal by its name is its true
+//! value (`ram_position`, `table.position`, `reference`); `measured/<signal>` is what the
+//! controller measured (sampled only at control updates); `controller/<internal>`,
+//! `diagnostics/<name>`, `effort/commanded/<joint>`, `effort/applied/<joint>`, and
+//! `saturated/<joint>` (1 while the joint's effort is clipped, else 0: its `mean` is the
+//! saturation share). Samples are every physics step in the window.
+
+use crate::run::{Findings, Observer, ObserverError, SignalLayout, StepView};
+use serde::Deserialize;
+
+/// One `[[metrics]]` entry of a scenario.
+#[derive(Debug, Clone, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct MetricSpec {
+    /// The figure's name in the summary.
+    pub name: String,
+    pub kind: MetricKind,
+    /// The signal judged (see the module's naming).
+    pub signal: String,
+    /// When given, the figure is of `reference − signal`.
+    pub reference: Option<String>,
+    /// Window start, s.
+    #[serde(default)]
+    pub from: f64,
+    /// Window end, s (default: the run's end).
+    pub to: Option<f64>,
+    /// Factor on the judged value (a change of unit, e.g. 100 for m → cm).
+    #[serde(default = "unit_scale")]
+    pub scale: f64,
+    /// `settle_time`: the band |e| must stay within.
+    pub band: Option<f64>,
+    /// The figure's unit, for the reader (documentation only).
+    #[serde(default)]
+    pub unit: String,
+}
+
+fn unit_scale() -> f64 {
+    1.0
+}
+
+#[derive(Debug, Clone, Copy, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum MetricKind {
+    Mse,
+    Rms,
+    Mean,
+    Std,
+    MaxAbs,
+    Max,
+    Min,
+    Final,
+    SettleTime,
+}
+
+impl MetricSpec {
+    /// Checks what can be checked before the run (names are checked against the run's layout).
+    pub fn validate(&self) -> Result<(), String> {
+        let at = |what: String| format!("metrics `{}`: {what}", self.name);
+        if self.name.is_empty() {
+            return Err("metrics: every entry needs a name".into());
+        }
+        if !(self.from.is_finite() && self.from >= 0.0) {
+            return Err(at(format!(
+                "from must be finite and ≥ 0, got {}",
+                self.from
+            )));
+        }
+        if let Some(to) = self.to {
+            if !(to.is_finite() && to >= self.from) {
+                return Err(at(format!("to must be finite and ≥ from, got {to}")));
+            }
+        }
+        if !(self.scale.is_finite() && self.scale != 0.0) {
+            return Err(at(format!(
+                "scale must be finite and ≠ 0, got {}",
+                self.scale
+            )));
+        }
+        match (self.kind, self.band) {
+            (MetricKind::SettleTime, Some(band)) if band.is_finite() && band > 0.0 => Ok(()),
+            (MetricKind::SettleTime, _) => Err(at("settle_time needs a band > 0".into())),
+            (_, Some(_)) => Err(at("band is only for kind = \"settle_time\"".into())),
+            (_, None) => Ok(()),
+        }
+    }
+}
+
+/// Where a named signal is found in a step.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Source {
+    True(usize),
+    Measured(usize),
+    Internal(usize),
+    Diagnostic(usize),
+    Commanded(usize),
+    Applied(usize),
+    Saturated(usize),
+}
+
+impl Source {
+    fn find(name: &str, layout: &SignalLayout) -> Option<Self> {
+        let (prefix, rest) = name.split_once('/').unwrap_or(("", name));
+        match prefix {
+            "measured" => layout.signal(rest).map(Source::Measured),
+            "controller" => layout.internal(rest).map(Source::Internal),
+            "diagnostics" => layout.diagnostic(rest).map(Source::Diagnostic),
+            "saturated" => layout.actuator(rest).map(Source::Saturated),
+            "effort" => match rest.split_once('/') {
+                Some(("commanded", joint)) => layout.actuator(joint).map(Source::Commanded),
+                Some(("applied", joint)) => layout.actuator(joint).map(Source::Applied),
+                _ => None,
+            },
+            _ => layout.signal(name).map(Source::True),
+        }
+    }
+
+    fn value(self, view: &StepView) -> f64 {
+        match self {
+            Source::True(i) => view.signals[i],
+            Source::Measured(i) => view.measured[i],
+            Source::Internal(i) => view.internals[i],
+            Source::Diagnostic(i) => view.diagnostics[i],
+            Source::Commanded(i) => view.commanded[i],
+            Source::Applied(i) => view.applied[i],
+            Source::Saturated(i) => f64::from(u8::from(view.saturated[i])),
+        }
+    }
+}
+
+/// Running statistics of the judged value.
+#[derive(Debug, Clone, Default)]
+struct Statistics {
+    count: usize,
+    sum: f64,
+    sum_of_squares: f64,
+    mean: f64,
+    deviation_squares: f64,
+    max_abs: f64,
+    max: f64,
+    min: f64,
+    last: f64,
+    /// Start of the current stretch within the band, if inside it.
+    settled_since: Option<f64>,
+}
+
+impl Statistics {
+    fn add(&mut self, time: f64, value: f64, band: Option<f64>) {
+        if self.count == 0 {
+            (self.max, self.min) = (value, value);
+        }
+        self.count += 1;
+        self.sum += value;
+        self.sum_of_squares += value * value;
+        let delta = value - self.mean;
+        self.mean += delta / self.count as f64;
+        self.deviation_squares += delta * (value - self.mean);
+        self.max_abs = self.max_abs.max(value.abs());
+        self.max = self.max.max(value);
+        self.min = self.min.min(value);
+        self.last = value;
+        if let Some(band) = band {
+            self.settled_since = match (value.abs() <= band, self.settled_since) {
+                (true, Some(since)) => Some(since),
+                (true, None) => Some(time),
+                (false, _) => None,
+            };
+        }
+    }
+}
+
+/// A declared figure, bound to a run's layout.
+#[derive(Debug, Clone)]
+pub struct Evaluator {
+    spec: MetricSpec,
+    signal: Source,
+    reference: Option<Source>,
+    /// Sampled only when the controller measured (a `measured/` source).
+    at_control_updates: bool,
+    statistics: Statistics,
+}
+
+impl Evaluator {
+    /// Binds `spec` to the run's signals; an unknown name is an error naming it.
+    pub fn bind(spec: &MetricSpec, layout: &SignalLayout) -> Result<Self, String> {
+        let find = |name: &str| {
+            Source::find(name, layout).ok_or_else(|| {
+                format!(
+                    "metrics `{}`: no signal `{name}` in this run (plant signals: {}; or \
+                     measured/…, controller/…, diagnostics/…, effort/commanded/…, \
+                     effort/applied/…, saturated/…)",
+                    spec.name,
+                    layout.signals.join(", ")
+                )
+            })
+        };
+        let signal = find(&spec.signal)?;
+        let reference = spec.reference.as_deref().map(find).transpose()?;
+        let measured = |s: &Source| matches!(s, Source::Measured(_));
+        Ok(Self {
+            spec: spec.clone(),
+            at_control_updates: measured(&signal) || reference.as_ref().is_some_and(measured),
+            signal,
+            reference,
+            statistics: Statistics::default(),
+        })
+    }
+
+    /// The figure, by the spec's kind (NaN when the window held no sample).
+    pub fn value(&self) -> f64 {
+        let s = &self.statistics;
+        if s.count == 0 {
+            return f64::NAN;
+        }
+        let n = s.count as f64;
+        match self.spec.kind {
+            MetricKind::Mse => s.sum_of_squares / n,
+            MetricKind::Rms => (s.sum_of_squares / n).sqrt(),
+            MetricKind::Mean => s.sum / n,
+            MetricKind::Std => (s.deviation_squares / n).sqrt(),
+            MetricKind::MaxAbs => s.max_abs,
+            MetricKind::Max => s.max,
+            MetricKind::Min => s.min,
+            MetricKind::Final => s.last,
+            MetricKind::SettleTime => s.settled_since.map_or(f64::NAN, |t| t - self.spec.from),
+        }
+    }
+}
+
+impl Observer for Evaluator {
+    fn observe(&mut self, view: &StepView) -> Result<(), ObserverError> {
+        let within = view.time >= self.spec.from && self.spec.to.is_none_or(|to| view.time <= to);
+        if !within || (self.at_control_updates && !view.control_update) {
+            return Ok(());
+        }
+        let x = self.signal.value(view);
+        let judged = match self.reference {
+            Some(reference) => reference.value(view) - x,
+            None => x,
+        };
+        let value = self.spec.scale * judged;
+        self.statistics.add(view.time, value, self.spec.band);
+        Ok(())
+    }
+
+    fn finish(&mut self) -> Result<Findings, ObserverError> {
+        Ok(Findings {
+            metrics: vec![(self.spec.name.clone(), self.value())],
+            warnings: Vec::new(),
+        })
+    }
+}

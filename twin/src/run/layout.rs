@@ -1,0 +1,151 @@
+//! Where each value of a run lives: the names behind every slice a step carries, and the index
+//! arithmetic between the mechanism's joints, the plant's signals and the diagnostics.
+
+use crate::mechanism::Mechanism;
+use crate::physics::MechanismState;
+use std::ops::Range;
+
+/// The names of everything a run carries per step, fixed before the first step. Every slice in
+/// a [`StepView`](super::StepView) follows the order of the matching list here.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SignalLayout {
+    /// Movable joints (all recorded), in tree order.
+    pub joints: Vec<String>,
+    /// The plant's signals, as the controller measures them: `<joint>.position` and
+    /// `<joint>.velocity` of each sensed joint, the machine's task-space and process signals,
+    /// then `reference`, `reference_rate`, `reference_acceleration` when the scenario has one.
+    pub signals: Vec<String>,
+    /// Actuated joints (and the machine's own actuators, e.g. driven wheels).
+    pub actuators: Vec<String>,
+    /// The controller's internal signals.
+    pub internals: Vec<String>,
+    /// Model checks recorded beside the signals: the machine's, one `loop_gap/<loop>` per loop
+    /// closure, and `mechanical_energy` last.
+    pub diagnostics: Vec<String>,
+    /// Tree joint index of each movable joint.
+    movable: Vec<usize>,
+    /// Tree joint index of each sensed joint (its position and velocity lead `signals`).
+    sensed: Vec<usize>,
+    machine_signals: Range<usize>,
+    /// Start of the reference triple in `signals`.
+    reference: Option<usize>,
+    machine_diagnostics: usize,
+    loops: usize,
+}
+
+/// The parts of the layout the twin knows before it binds a controller.
+pub(super) struct LayoutParts {
+    pub movable: Vec<usize>,
+    pub sensed: Vec<usize>,
+    pub machine_signals: Vec<String>,
+    pub has_reference: bool,
+    pub actuators: Vec<String>,
+    pub machine_diagnostics: Vec<String>,
+}
+
+impl SignalLayout {
+    pub(super) fn new(mechanism: &Mechanism, parts: LayoutParts) -> Self {
+        let name = |j: usize| mechanism.joints[j].name.clone();
+        let mut signals = Vec::new();
+        for &j in &parts.sensed {
+            signals.push(format!("{}.position", name(j)));
+            signals.push(format!("{}.velocity", name(j)));
+        }
+        let machine_start = signals.len();
+        signals.extend(parts.machine_signals);
+        let machine_signals = machine_start..signals.len();
+        let reference = parts.has_reference.then_some(signals.len());
+        if parts.has_reference {
+            signals.extend(
+                ["reference", "reference_rate", "reference_acceleration"].map(String::from),
+            );
+        }
+        let machine_diagnostics = parts.machine_diagnostics.len();
+        let mut diagnostics = parts.machine_diagnostics;
+        diagnostics.extend(
+            mechanism
+                .loops
+                .iter()
+                .map(|l| format!("loop_gap/{}", l.name)),
+        );
+        diagnostics.push("mechanical_energy".into());
+        Self {
+            joints: parts.movable.iter().map(|&j| name(j)).collect(),
+            signals,
+            actuators: parts.actuators,
+            internals: Vec::new(),
+            diagnostics,
+            movable: parts.movable,
+            sensed: parts.sensed,
+            machine_signals,
+            reference,
+            machine_diagnostics,
+            loops: mechanism.loops.len(),
+        }
+    }
+
+    /// Index of a plant signal by name.
+    pub fn signal(&self, name: &str) -> Option<usize> {
+        self.signals.iter().position(|s| s == name)
+    }
+
+    pub fn actuator(&self, joint: &str) -> Option<usize> {
+        self.actuators.iter().position(|s| s == joint)
+    }
+
+    pub fn internal(&self, name: &str) -> Option<usize> {
+        self.internals.iter().position(|s| s == name)
+    }
+
+    pub fn diagnostic(&self, name: &str) -> Option<usize> {
+        self.diagnostics.iter().position(|s| s == name)
+    }
+
+    /// The machine's own signals (task-space and process) within the plant's signals.
+    pub fn machine_signals<'a>(&self, signals: &'a [f64]) -> &'a [f64] {
+        &signals[self.machine_signals.clone()]
+    }
+
+    /// Names of the machine's own signals.
+    pub fn machine_signal_names(&self) -> &[String] {
+        &self.signals[self.machine_signals.clone()]
+    }
+
+    /// Tree joint index of each movable joint, in the order of `joints`.
+    pub fn movable_joints(&self) -> &[usize] {
+        &self.movable
+    }
+
+    /// The mechanical energy within the diagnostics, J.
+    pub fn mechanical_energy(&self, diagnostics: &[f64]) -> f64 {
+        diagnostics[diagnostics.len() - 1]
+    }
+
+    /// Copies the sensed joints' positions and velocities into the head of `signals`.
+    pub(super) fn fill_joint_signals(&self, state: &MechanismState, signals: &mut [f64]) {
+        for (k, &j) in self.sensed.iter().enumerate() {
+            signals[2 * k] = state.joint_positions[j];
+            signals[2 * k + 1] = state.joint_velocities[j];
+        }
+    }
+
+    /// The machine's signal slice (to fill) and the reference triple, if any.
+    pub(super) fn machine_and_reference<'a>(
+        &self,
+        signals: &'a mut [f64],
+    ) -> (&'a mut [f64], Option<&'a mut [f64]>) {
+        let (head, tail) = signals.split_at_mut(self.machine_signals.end);
+        let machine = &mut head[self.machine_signals.start..];
+        (machine, self.reference.map(|_| &mut tail[..3]))
+    }
+
+    /// The machine's diagnostics, the loop gaps and the mechanical energy, to fill.
+    pub(super) fn split_diagnostics<'a>(
+        &self,
+        diagnostics: &'a mut [f64],
+    ) -> (&'a mut [f64], &'a mut [f64], &'a mut f64) {
+        let (machine, rest) = diagnostics.split_at_mut(self.machine_diagnostics);
+        let (gaps, energy) = rest.split_at_mut(self.loops);
+        (machine, gaps, &mut energy[0])
+    }
+}

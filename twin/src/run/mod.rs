@@ -1,0 +1,458 @@
+//! `Twin::run`, the one door in. Each step runs sense → control → actuate → observe → step
+//! ([`session`]): world → state → machine signals → sensors → controller → efforts (clipped,
+//! through the drives) → observers (the recording, the scenario's evaluators, the caller's) →
+//! world.
+
+mod layout;
+mod observer;
+mod record;
+mod session;
+mod stats;
+
+pub use layout::SignalLayout;
+pub use observer::{Findings, Observer, ObserverError, StepView};
+
+use crate::evaluate::Evaluator;
+use crate::machines::{self, Machine, MachineError};
+use crate::mechanism::{JointMotion, Mechanism};
+use crate::physics::MechanismState;
+use crate::recording::{LiveViewer, RecordingError};
+use crate::scenario::{LoadedScenario, ScenarioError};
+use crate::sensors::Sensor;
+use crate::urdf::{self, UrdfError};
+use controllers::{Actuator, Controller, ControllerError, EffortKind, PlantInterface, Registry};
+use layout::LayoutParts;
+use record::RecordingObserver;
+use session::Session;
+use stats::RunStats;
+use std::path::Path;
+use std::time::Instant;
+use thiserror::Error;
+
+/// Everything that stops a run before it starts, or ends it without a summary (a failed
+/// recording or observer).
+#[derive(Debug, Error)]
+pub enum TwinError {
+    #[error(transparent)]
+    Scenario(#[from] ScenarioError),
+    #[error(transparent)]
+    Urdf(#[from] UrdfError),
+    /// A machine's checks cover the scenario's `[process]` table and the URDF's geometry: both
+    /// files are named.
+    #[error("{scenario} (URDF {urdf}): {source}")]
+    Machine {
+        scenario: String,
+        urdf: String,
+        source: MachineError,
+    },
+    /// A controller's parameters are the scenario's; its plant check also concerns the URDF.
+    #[error("{context}: {source}")]
+    Controller {
+        context: String,
+        source: ControllerError,
+    },
+    #[error("{source_name}: sensors.\"{signal}\": no such measured signal (known: {known})")]
+    UnknownSensor {
+        source_name: String,
+        signal: String,
+        known: String,
+    },
+    /// A `[[metrics]]` entry names a signal the run does not have.
+    #[error("{source_name}: {reason}")]
+    Metrics { source_name: String, reason: String },
+    #[error(transparent)]
+    Recording(#[from] RecordingError),
+    /// A caller's observer failed; the run stopped.
+    #[error("observer: {0}")]
+    Observer(ObserverError),
+}
+
+/// Why a run stopped early: the first signal that left its bounds.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Divergence {
+    pub step: usize,
+    pub time: f64,
+    pub signal: String,
+    pub value: f64,
+}
+
+impl std::fmt::Display for Divergence {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "run diverged at step {} (t = {:.6} s): {} = {}",
+            self.step, self.time, self.signal, self.value
+        )
+    }
+}
+
+/// A run stopped on request (SIGINT/SIGTERM in the CLI) before its end.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Interruption {
+    /// The signal number that asked for the stop (2: SIGINT, 15: SIGTERM).
+    pub signal: usize,
+    /// The last step simulated and recorded, and its time, s.
+    pub step: usize,
+    pub time: f64,
+}
+
+impl std::fmt::Display for Interruption {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let name = match self.signal {
+            2 => "SIGINT".to_string(),
+            15 => "SIGTERM".to_string(),
+            other => format!("signal {other}"),
+        };
+        write!(
+            f,
+            "interrupted by {name} at step {} (t = {:.6} s)",
+            self.step, self.time
+        )
+    }
+}
+
+/// A flag a run polls once per step: 0 goes on, any other value (a signal number) stops it.
+pub type StopFlag = std::sync::Arc<std::sync::atomic::AtomicUsize>;
+
+/// What a run reports.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RunSummary {
+    pub scenario: String,
+    pub controller: String,
+    pub dt: f64,
+    pub steps: usize,
+    pub wall_s: f64,
+    pub steps_per_s: f64,
+    pub metrics: Vec<(String, f64)>,
+    pub failure: Option<Divergence>,
+    /// Set when the run was stopped on request before its end.
+    pub interrupted: Option<Interruption>,
+    /// What went wrong beside the run without failing it (a live viewer that did not take it).
+    pub warnings: Vec<String>,
+    /// FNV-1a digest of every recorded sample's bits: equal digests, identical series.
+    pub series_digest: u64,
+}
+
+impl RunSummary {
+    pub fn metric(&self, name: &str) -> Option<f64> {
+        self.metrics
+            .iter()
+            .find(|(n, _)| n == name)
+            .map(|(_, v)| *v)
+    }
+}
+
+/// A scenario bound to its mechanism, machine and controller, ready to run.
+pub struct Twin {
+    loaded: LoadedScenario,
+    mechanism: Mechanism,
+    machine: Box<dyn Machine>,
+    controller: Box<dyn Controller>,
+    plant: PlantInterface,
+    layout: SignalLayout,
+    /// Per plant signal: its sensor, if the scenario gives one.
+    sensors: Vec<Option<Sensor>>,
+    /// Tree joint index of each actuator on a joint; the machine's own actuators follow them.
+    actuated: Vec<usize>,
+    /// The scenario's `[[metrics]]`, bound to the layout.
+    evaluators: Vec<Evaluator>,
+    /// A viewer to stream the run to, besides the recording file.
+    live: Option<LiveViewer>,
+    /// Polled every step; see [`Twin::with_stop_flag`].
+    stop: Option<StopFlag>,
+}
+
+impl Twin {
+    /// Builds the twin with a controller from `registry` (the scenario names it).
+    pub fn new(loaded: LoadedScenario, registry: &Registry) -> Result<Self, TwinError> {
+        let spec = &loaded.scenario.controller;
+        let controller =
+            registry
+                .build(&spec.name, &spec.params)
+                .map_err(|source| TwinError::Controller {
+                    context: loaded.source.clone(),
+                    source,
+                })?;
+        Self::with_controller(loaded, controller)
+    }
+
+    /// Builds the twin around a controller the caller made (a user's own, for example).
+    pub fn with_controller(
+        loaded: LoadedScenario,
+        mut controller: Box<dyn Controller>,
+    ) -> Result<Self, TwinError> {
+        let scenario = &loaded.scenario;
+        let mechanism = urdf::load_str(&loaded.urdf_text, &loaded.urdf_source)?;
+        let machine = machines::build(&scenario.machine, &mechanism, &scenario.process).map_err(
+            |source| TwinError::Machine {
+                scenario: loaded.source.clone(),
+                urdf: loaded.urdf_source.clone(),
+                source,
+            },
+        )?;
+        let actuated = mechanism.actuated_joints();
+        let mut layout = signal_layout(&mechanism, machine.as_ref(), scenario, &actuated);
+        let mut actuators = joint_actuators(&mechanism, &actuated);
+        actuators.extend(machine.extra_actuators());
+        let plant = PlantInterface {
+            machine: scenario.machine.clone(),
+            signals: layout.signals.clone(),
+            actuators,
+        };
+        let sensors = bind_sensors(&loaded, &plant)?;
+        controller
+            .reset(&plant)
+            .map_err(|source| TwinError::Controller {
+                context: format!("{} (URDF {})", loaded.source, loaded.urdf_source),
+                source,
+            })?;
+        layout.internals = controller.internal_names();
+        let evaluators = scenario
+            .metrics
+            .iter()
+            .map(|spec| Evaluator::bind(spec, &layout))
+            .collect::<Result<_, _>>()
+            .map_err(|reason| TwinError::Metrics {
+                source_name: loaded.source.clone(),
+                reason,
+            })?;
+        Ok(Self {
+            loaded,
+            mechanism,
+            machine,
+            controller,
+            plant,
+            layout,
+            sensors,
+            actuated,
+            evaluators,
+            live: None,
+            stop: None,
+        })
+    }
+
+    /// Streams the recorded run to a live viewer too (`twin run --connect URL | --spawn`).
+    pub fn with_live_viewer(mut self, live: LiveViewer) -> Self {
+        self.live = Some(live);
+        self
+    }
+
+    /// Stops the run at the next step once `flag` holds a non-zero value (the CLI stores the
+    /// signal number there): the recording is finished and the summary says where it stopped.
+    pub fn with_stop_flag(mut self, flag: StopFlag) -> Self {
+        self.stop = Some(flag);
+        self
+    }
+
+    /// The plant as the controller sees it: its measured signals and actuators (with limits).
+    pub fn plant(&self) -> &PlantInterface {
+        &self.plant
+    }
+
+    /// The names behind every value of a step, known before the run.
+    pub fn layout(&self) -> &SignalLayout {
+        &self.layout
+    }
+
+    /// Runs the scenario; with `recording`, writes the .rrd there (atomically: a partial file
+    /// is renamed into place only once closed). A diverging run stops early and says so in the
+    /// summary; its recording is kept, up to and including the failure.
+    pub fn run(self, recording: Option<&Path>) -> Result<RunSummary, TwinError> {
+        self.run_with(recording, &mut [])
+    }
+
+    /// [`Twin::run`] with `observers` watching every step besides the recording and the
+    /// scenario's evaluators; the figures they find join the summary's metrics.
+    pub fn run_with(
+        mut self,
+        recording: Option<&Path>,
+        observers: &mut [&mut dyn Observer],
+    ) -> Result<RunSummary, TwinError> {
+        let mut recorder = recording.map(|path| self.recording_observer(path));
+        let mut stats = RunStats::default();
+        let mut evaluators = std::mem::take(&mut self.evaluators);
+        let mut watching: Vec<&mut dyn Observer> = Vec::with_capacity(2 + observers.len());
+        if let Some(recorder) = recorder.as_mut() {
+            watching.push(recorder);
+        }
+        watching.push(&mut stats);
+        watching.extend(evaluators.iter_mut().map(|e| e as &mut dyn Observer));
+        watching.extend(observers.iter_mut().map(|o| shorten(&mut **o)));
+        for observer in &mut watching {
+            observer.start(&self.layout).map_err(observer_error)?;
+        }
+        let started = Instant::now();
+        let ending = Session::new(&mut self).run(&mut watching)?;
+        let wall_s = started.elapsed().as_secs_f64();
+        let mut metrics = self.machine.metrics();
+        let mut warnings = Vec::new();
+        for observer in &mut watching {
+            let findings = observer.finish().map_err(observer_error)?;
+            metrics.extend(findings.metrics);
+            warnings.extend(findings.warnings);
+        }
+        let scenario = &self.loaded.scenario;
+        Ok(RunSummary {
+            scenario: scenario.name.clone(),
+            controller: self.controller.name().to_string(),
+            dt: scenario.dt,
+            steps: ending.steps,
+            wall_s,
+            steps_per_s: ending.steps as f64 / wall_s.max(1e-12),
+            metrics,
+            failure: ending.failure,
+            interrupted: ending.interrupted,
+            warnings,
+            series_digest: ending.digest,
+        })
+    }
+
+    fn recording_observer(&self, path: &Path) -> RecordingObserver {
+        let scenario = &self.loaded.scenario;
+        RecordingObserver::new(
+            path.to_path_buf(),
+            scenario.name.clone(),
+            self.loaded.toml.clone(),
+            self.mechanism
+                .links
+                .iter()
+                .map(|l| (l.name.clone(), l.visuals.clone()))
+                .collect(),
+            self.live.clone(),
+        )
+    }
+
+    fn stop_requested(&self) -> Option<usize> {
+        let signal = self
+            .stop
+            .as_ref()?
+            .load(std::sync::atomic::Ordering::Relaxed);
+        (signal != 0).then_some(signal)
+    }
+
+    fn check_health(
+        &self,
+        step: usize,
+        time: f64,
+        state: &MechanismState,
+        signals: &[f64],
+    ) -> Option<Divergence> {
+        let limits = &self.loaded.scenario.health;
+        let diverged = |signal: String, value: f64| {
+            Some(Divergence {
+                step,
+                time,
+                signal,
+                value,
+            })
+        };
+        for (j, joint) in self.mechanism.joints.iter().enumerate() {
+            let (q, v) = (state.joint_positions[j], state.joint_velocities[j]);
+            if !q.is_finite() {
+                return diverged(format!("{}.position", joint.name), q);
+            }
+            if !v.is_finite() || v.abs() > limits.max_joint_speed {
+                return diverged(format!("{}.velocity", joint.name), v);
+            }
+        }
+        for (l, gap) in state.loop_gaps.iter().enumerate() {
+            if !gap.is_finite() || *gap > limits.max_loop_gap {
+                return diverged(format!("loop_gap/{}", self.mechanism.loops[l].name), *gap);
+            }
+        }
+        for (name, value) in self.plant.signals.iter().zip(signals) {
+            if !value.is_finite() {
+                return diverged(name.clone(), *value);
+            }
+        }
+        None
+    }
+}
+
+/// A caller's observer, borrowed for as long as the run's own.
+fn shorten<'x>(observer: &'x mut (dyn Observer + '_)) -> &'x mut (dyn Observer + 'x) {
+    observer
+}
+
+/// An observer's error as the run's: a recording's keeps its type.
+fn observer_error(error: ObserverError) -> TwinError {
+    match error.downcast::<RecordingError>() {
+        Ok(recording) => TwinError::Recording(*recording),
+        Err(other) => TwinError::Observer(other),
+    }
+}
+
+/// The run's layout: the movable joints, those the controller measures (the machine may hide
+/// some, e.g. a planar base), the machine's signals and diagnostics, the actuators.
+fn signal_layout(
+    mechanism: &Mechanism,
+    machine: &dyn Machine,
+    scenario: &crate::scenario::Scenario,
+    actuated: &[usize],
+) -> SignalLayout {
+    let movable: Vec<usize> = (0..mechanism.joints.len())
+        .filter(|&j| mechanism.joints[j].motion.is_movable())
+        .collect();
+    let hidden = machine.unmeasured_joints();
+    let sensed = movable
+        .iter()
+        .copied()
+        .filter(|&j| !hidden.contains(&mechanism.joints[j].name))
+        .collect();
+    let mut actuators: Vec<String> = actuated
+        .iter()
+        .map(|&j| mechanism.joints[j].name.clone())
+        .collect();
+    actuators.extend(machine.extra_actuators().into_iter().map(|a| a.joint));
+    SignalLayout::new(
+        mechanism,
+        LayoutParts {
+            movable,
+            sensed,
+            machine_signals: machine.signal_names(),
+            has_reference: scenario.reference.is_some(),
+            actuators,
+            machine_diagnostics: machine.diagnostic_names(),
+        },
+    )
+}
+
+/// Per plant signal, its sensor if the scenario gives one; an unknown signal is an error.
+fn bind_sensors(
+    loaded: &LoadedScenario,
+    plant: &PlantInterface,
+) -> Result<Vec<Option<Sensor>>, TwinError> {
+    let scenario = &loaded.scenario;
+    let mut sensors: Vec<Option<Sensor>> = vec![None; plant.signals.len()];
+    for (name, spec) in &scenario.sensors {
+        let index = plant
+            .signals
+            .iter()
+            .position(|s| s == name)
+            .ok_or_else(|| TwinError::UnknownSensor {
+                source_name: loaded.source.clone(),
+                signal: name.clone(),
+                known: plant.signals.join(", "),
+            })?;
+        sensors[index] = Some(Sensor::new(*spec, scenario.control_period()));
+    }
+    Ok(sensors)
+}
+
+/// An actuator per actuated tree joint: a force on a prismatic joint, else a torque.
+fn joint_actuators(mechanism: &Mechanism, actuated: &[usize]) -> Vec<Actuator> {
+    actuated
+        .iter()
+        .map(|&j| {
+            let joint = &mechanism.joints[j];
+            Actuator {
+                joint: joint.name.clone(),
+                kind: match joint.motion {
+                    JointMotion::Prismatic { .. } => EffortKind::Force,
+                    _ => EffortKind::Torque,
+                },
+                effort_limit: joint.effort_limit.unwrap_or(f64::INFINITY),
+            }
+        })
+        .collect()
+}

@@ -1,0 +1,264 @@
+//! One run's loop: sense → control → actuate → observe → step, over buffers sized once.
+
+use super::observer::{Observer, StepView};
+use super::stats::Digest;
+use super::{observer_error, Divergence, Interruption, Twin, TwinError};
+use crate::energy::mechanical_energy;
+use crate::physics::{Load, MechanismState, Physics, SolverSettings};
+use crate::sensors::Noise;
+use controllers::{Event, EventKind, Measurement};
+
+/// How a run ended.
+pub(super) struct Ending {
+    /// The last step simulated.
+    pub steps: usize,
+    pub failure: Option<Divergence>,
+    pub interrupted: Option<Interruption>,
+    pub digest: u64,
+}
+
+/// The values of one step, in the layout's orders.
+#[derive(Default)]
+struct Buffers {
+    state: MechanismState,
+    signals: Vec<f64>,
+    measured: Vec<f64>,
+    commanded: Vec<f64>,
+    /// Commanded efforts clipped to the actuator limits (what the drives are given).
+    limited: Vec<f64>,
+    applied: Vec<f64>,
+    saturated: Vec<bool>,
+    internals: Vec<f64>,
+    diagnostics: Vec<f64>,
+    events: Vec<Event>,
+    joint_efforts: Vec<f64>,
+    loads: Vec<Load>,
+}
+
+/// A twin being run.
+pub(super) struct Session<'t> {
+    twin: &'t mut Twin,
+    physics: Physics,
+    values: Buffers,
+    noise: Noise,
+    digest: Digest,
+    dt: f64,
+    control_every: usize,
+    control_period: f64,
+    record_every: usize,
+}
+
+impl<'t> Session<'t> {
+    pub fn new(twin: &'t mut Twin) -> Self {
+        let scenario = &twin.loaded.scenario;
+        let physics = Physics::new(
+            &twin.mechanism,
+            SolverSettings {
+                dt: scenario.dt,
+                gravity: scenario.gravity,
+                substeps: scenario.substeps,
+            },
+        );
+        let layout = &twin.layout;
+        let actuators = layout.actuators.len();
+        let values = Buffers {
+            signals: vec![0.0; layout.signals.len()],
+            measured: vec![0.0; layout.signals.len()],
+            commanded: vec![0.0; actuators],
+            limited: vec![0.0; actuators],
+            applied: vec![0.0; actuators],
+            saturated: vec![false; actuators],
+            internals: vec![0.0; layout.internals.len()],
+            diagnostics: vec![0.0; layout.diagnostics.len()],
+            joint_efforts: vec![0.0; twin.mechanism.joints.len()],
+            ..Buffers::default()
+        };
+        Self {
+            noise: Noise::new(scenario.seed),
+            digest: Digest::default(),
+            dt: scenario.dt,
+            control_every: scenario.control_every(),
+            control_period: scenario.control_period(),
+            record_every: scenario.recording.every,
+            physics,
+            values,
+            twin,
+        }
+    }
+
+    /// Steps until the scenario's end, a divergence or a stop request.
+    pub fn run(mut self, observers: &mut [&mut dyn Observer]) -> Result<Ending, TwinError> {
+        let steps = self.twin.loaded.scenario.steps();
+        self.physics.read_state(&mut self.values.state);
+        let mut step = 0;
+        loop {
+            let time = step as f64 * self.dt;
+            self.sense(time);
+            let mut failure =
+                self.twin
+                    .check_health(step, time, &self.values.state, &self.values.signals);
+            let interrupted =
+                self.twin
+                    .stop_requested()
+                    .map(|signal| Interruption { signal, step, time });
+            let control_update = step.is_multiple_of(self.control_every) && failure.is_none();
+            if control_update {
+                self.control(time);
+                failure = failure.or_else(|| self.limit(step, time));
+            }
+            self.twin
+                .machine
+                .drive(self.dt, &self.values.limited, &mut self.values.applied);
+            if let Some(failure) = &failure {
+                let event = Event::error(EventKind::Divergence, failure.to_string());
+                self.values.events.push(event);
+            }
+            if let Some(interrupted) = &interrupted {
+                let event = Event::warning(EventKind::Interruption, interrupted.to_string());
+                self.values.events.push(event);
+            }
+            let last = failure.is_some() || interrupted.is_some() || step == steps;
+            self.observe(step, time, control_update, last, observers)?;
+            if last {
+                return Ok(Ending {
+                    steps: step,
+                    failure,
+                    interrupted,
+                    digest: self.digest.0,
+                });
+            }
+            self.advance(time);
+            step += 1;
+        }
+    }
+
+    /// The plant's true signals and the diagnostics for the state at `time`.
+    fn sense(&mut self, time: f64) {
+        let twin = &mut *self.twin;
+        let values = &mut self.values;
+        let layout = &twin.layout;
+        layout.fill_joint_signals(&values.state, &mut values.signals);
+        let (machine_signals, reference) = layout.machine_and_reference(&mut values.signals);
+        let (machine_diagnostics, gaps, energy) = layout.split_diagnostics(&mut values.diagnostics);
+        twin.machine
+            .measure(time, &values.state, machine_signals, machine_diagnostics);
+        gaps.copy_from_slice(&values.state.loop_gaps);
+        let scenario = &twin.loaded.scenario;
+        *energy = mechanical_energy(&twin.mechanism, &values.state, scenario.gravity);
+        if let (Some(path), Some(reference)) = (&scenario.reference, reference) {
+            let sample = path.sample(time);
+            reference.copy_from_slice(&[sample.position, sample.rate, sample.acceleration]);
+        }
+    }
+
+    /// Through the sensors to the controller: new commanded efforts, internals and events.
+    fn control(&mut self, time: f64) {
+        let twin = &mut *self.twin;
+        let values = &mut self.values;
+        for (i, sensor) in twin.sensors.iter_mut().enumerate() {
+            values.measured[i] = match sensor {
+                Some(sensor) => sensor.read(values.signals[i], &mut self.noise),
+                None => values.signals[i],
+            };
+        }
+        values.commanded.fill(0.0);
+        twin.controller.update(
+            &Measurement {
+                time,
+                signals: &values.measured,
+            },
+            self.control_period,
+            &mut values.commanded,
+        );
+        twin.controller.internal_values(&mut values.internals);
+        twin.controller.drain_events(&mut values.events);
+    }
+
+    /// Clips the commands to the actuator limits, with an event when one starts or stops
+    /// saturating; a non-finite command is a divergence.
+    fn limit(&mut self, step: usize, time: f64) -> Option<Divergence> {
+        let values = &mut self.values;
+        let mut failure = None;
+        for (a, actuator) in self.twin.plant.actuators.iter().enumerate() {
+            let commanded = values.commanded[a];
+            if !commanded.is_finite() {
+                failure.get_or_insert(Divergence {
+                    step,
+                    time,
+                    signal: format!("effort/commanded/{}", actuator.joint),
+                    value: commanded,
+                });
+                continue;
+            }
+            let limited = commanded.clamp(-actuator.effort_limit, actuator.effort_limit);
+            values.limited[a] = limited;
+            let now_saturated = limited != commanded;
+            if now_saturated != values.saturated[a] {
+                let subject = actuator.joint.clone();
+                values.events.push(if now_saturated {
+                    let text = format!(
+                        "{subject} effort saturated at {limited:+} (commanded {commanded:+.3})"
+                    );
+                    Event::warning(EventKind::SaturationStart { subject }, text)
+                } else {
+                    let text = format!("{subject} effort back within its limit");
+                    Event::info(EventKind::SaturationEnd { subject }, text)
+                });
+                values.saturated[a] = now_saturated;
+            }
+        }
+        failure
+    }
+
+    /// Shows the step to every observer; the step's events are then spent.
+    fn observe(
+        &mut self,
+        step: usize,
+        time: f64,
+        control_update: bool,
+        last: bool,
+        observers: &mut [&mut dyn Observer],
+    ) -> Result<(), TwinError> {
+        let values = &self.values;
+        let view = StepView {
+            step,
+            time,
+            layout: &self.twin.layout,
+            state: &values.state,
+            signals: &values.signals,
+            measured: &values.measured,
+            commanded: &values.commanded,
+            applied: &values.applied,
+            saturated: &values.saturated,
+            internals: &values.internals,
+            diagnostics: &values.diagnostics,
+            events: &values.events,
+            control_update,
+            sampled: step.is_multiple_of(self.record_every) || last,
+            last,
+        };
+        if view.sampled {
+            self.digest.add_step(&view);
+        }
+        for observer in observers.iter_mut() {
+            observer.observe(&view).map_err(observer_error)?;
+        }
+        self.values.events.clear();
+        Ok(())
+    }
+
+    /// The efforts and process loads over one physics step.
+    fn advance(&mut self, time: f64) {
+        let values = &mut self.values;
+        values.joint_efforts.fill(0.0);
+        for (a, &j) in self.twin.actuated.iter().enumerate() {
+            values.joint_efforts[j] = values.applied[a];
+        }
+        values.loads.clear();
+        self.twin
+            .machine
+            .loads(time, &values.state, &mut values.loads);
+        self.physics.step(&values.joint_efforts, &values.loads);
+        self.physics.read_state(&mut values.state);
+    }
+}
