@@ -4,6 +4,7 @@
 
 use controllers::{Controller, ControllerError, Measurement, PlantInterface, Registry};
 use std::sync::{Arc, Mutex};
+use twin::evaluate::{MetricKind, MetricSpec};
 use twin::{RunSummary, ScenarioBuilder, ScenarioValue, Twin};
 use twin_tests::{builtin, run, Configure};
 
@@ -240,8 +241,17 @@ fn stsmc_tracks_closer_than_p_pi_and_shrugs_off_the_cut() {
     }
     // The cut's effect once the start is over (from 1 s): P-PI's slow integral lets the cut's
     // drag through; STSMC's switching absorbs it to within the 1 nm encoder.
-    let settled =
-        |builder: ScenarioBuilder| builder.duration(2.5).with("process.metrics_from", 1.0);
+    let settled = |builder: ScenarioBuilder| {
+        let from_one_second = |name: &str, kind: MetricKind| MetricSpec {
+            reference: Some("reference".into()),
+            from: 1.0,
+            ..MetricSpec::new(name, kind, "table.position")
+        };
+        builder
+            .duration(2.5)
+            .metric(&from_one_second("position_error_max", MetricKind::MaxAbs))
+            .metric(&from_one_second("position_error_sigma", MetricKind::Std))
+    };
     let p_pi = [false, true].map(|cut| compare("p-pi", cut, settled));
     let stsmc = [false, true].map(|cut| compare("stsmc", cut, settled));
     let dob = [false, true].map(|cut| compare("stsmc-dob", cut, settled));
@@ -324,7 +334,7 @@ fn bad_controller_parameters_are_refused_before_the_run() {
 
 #[test]
 fn bad_process_parameters_are_refused_before_the_run() {
-    let cases: [(&str, ScenarioValue, &str); 6] = [
+    let cases: [(&str, ScenarioValue, &str); 5] = [
         (
             "process.current_limit",
             0.0.into(),
@@ -333,7 +343,6 @@ fn bad_process_parameters_are_refused_before_the_run() {
         ("process.force_constant", (-50.0).into(), "force_constant"),
         ("process.cut.teeth", 0.into(), "teeth"),
         ("process.cut.runout_offset", 1.0e-4.into(), "runout_offset"),
-        ("process.metrics_from", (-1.0).into(), "metrics_from"),
         ("process.spindle", 1.0.into(), "spindle"),
     ];
     for (key, value, expected) in cases {

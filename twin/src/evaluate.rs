@@ -23,10 +23,10 @@
 //! saturation share). Samples are every physics step in the window.
 
 use crate::run::{Findings, Observer, ObserverError, SignalLayout, StepView};
-use serde::Deserialize;
+use serde::{Deserialize, Serialize};
 
 /// One `[[metrics]]` entry of a scenario.
-#[derive(Debug, Clone, Deserialize, PartialEq)]
+#[derive(Debug, Clone, Deserialize, Serialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct MetricSpec {
     /// The figure's name in the summary.
@@ -55,7 +55,7 @@ fn unit_scale() -> f64 {
     1.0
 }
 
-#[derive(Debug, Clone, Copy, Deserialize, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, Deserialize, Serialize, PartialEq, Eq)]
 #[serde(rename_all = "snake_case")]
 pub enum MetricKind {
     Mse,
@@ -70,6 +70,21 @@ pub enum MetricKind {
 }
 
 impl MetricSpec {
+    /// A figure of `kind` over the whole run of `signal`, unscaled.
+    pub fn new(name: &str, kind: MetricKind, signal: &str) -> Self {
+        Self {
+            name: name.into(),
+            kind,
+            signal: signal.into(),
+            reference: None,
+            from: 0.0,
+            to: None,
+            scale: 1.0,
+            band: None,
+            unit: String::new(),
+        }
+    }
+
     /// Checks what can be checked before the run (names are checked against the run's layout).
     pub fn validate(&self) -> Result<(), String> {
         let at = |what: String| format!("metrics `{}`: {what}", self.name);

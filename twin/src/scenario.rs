@@ -497,6 +497,42 @@ impl ScenarioBuilder {
         self
     }
 
+    /// Declares a figure the run is judged by, replacing the scenario's `[[metrics]]` entry of
+    /// the same name if there is one.
+    pub fn metric(mut self, spec: &MetricSpec) -> Self {
+        let entry = match toml::Value::try_from(spec) {
+            Ok(entry) => entry,
+            Err(e) => {
+                let error = ScenarioError::BadKey {
+                    key: format!("metrics.{}", spec.name),
+                    reason: e.to_string(),
+                };
+                self.pending.get_or_insert(error);
+                return self;
+            }
+        };
+        let list = self
+            .table
+            .entry("metrics")
+            .or_insert_with(|| toml::Value::Array(Vec::new()));
+        let Some(list) = list.as_array_mut() else {
+            let error = ScenarioError::BadKey {
+                key: "metrics".into(),
+                reason: "is not an array of tables".into(),
+            };
+            self.pending.get_or_insert(error);
+            return self;
+        };
+        let same =
+            |v: &toml::Value| v.get("name").and_then(toml::Value::as_str) == Some(&spec.name);
+        match list.iter_mut().find(|v| same(v)) {
+            Some(existing) => *existing = entry,
+            None => list.push(entry),
+        }
+        self.changed = true;
+        self
+    }
+
     /// Sets a dotted key (quoted segments may hold dots: `sensors."table.position".noise`) to a
     /// typed value. Errors (bad key syntax, a parent that is not a table, too deep/long, a number
     /// TOML cannot hold) name the key; the value's type is checked by `build`.
@@ -875,5 +911,39 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(err.contains("noise"), "{err}");
+    }
+
+    #[test]
+    fn metrics_are_replaced_by_name_or_added() {
+        use crate::evaluate::{MetricKind, MetricSpec};
+        let loaded = Scenario::builtin("whitworth-tracking")
+            .unwrap()
+            .metric(&MetricSpec {
+                from: 3.0,
+                ..MetricSpec::new("tracking_mse", MetricKind::Mse, "ram_position")
+            })
+            .metric(&MetricSpec::new("peak", MetricKind::MaxAbs, "ram_velocity"))
+            .build()
+            .unwrap();
+        let metrics = &loaded.scenario.metrics;
+        assert_eq!(metrics.len(), 2);
+        assert_eq!(
+            (metrics[0].name.as_str(), metrics[0].from),
+            ("tracking_mse", 3.0)
+        );
+        assert_eq!(metrics[0].reference, None);
+        assert_eq!(
+            metrics[1],
+            MetricSpec::new("peak", MetricKind::MaxAbs, "ram_velocity")
+        );
+        let bad = Scenario::builtin("whitworth-tracking")
+            .unwrap()
+            .metric(&MetricSpec {
+                scale: f64::NAN,
+                ..MetricSpec::new("peak", MetricKind::MaxAbs, "ram_velocity")
+            })
+            .build()
+            .unwrap_err();
+        assert!(bad.to_string().contains("`metrics.1.scale`"), "{bad}");
     }
 }
