@@ -21,8 +21,6 @@ pub enum EventKind {
     SaturationEnd { subject: String },
     /// What a controller designed at reset (gains, poles) or a condition its design does not meet.
     Design,
-    /// A fault was injected or cleared.
-    Fault,
     /// The run diverged: a signal left its bounds (the summary's `failure`).
     Divergence,
     /// The run was stopped on request (a signal).

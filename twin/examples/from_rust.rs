@@ -4,7 +4,7 @@
 //! Run: `cargo run --release -p twin --example from_rust` (CI runs it; it fails loudly if a
 //! figure is missing).
 
-use controllers::{Controller, ControllerError, Event, Measurement, PlantInterface};
+use controllers::{Controller, ControllerError, EventKind, Measurement, PlantInterface};
 use models::whitworth::Geometry;
 use twin::{Findings, Observer, ObserverError, Scenario, SignalLayout, StepView, Twin};
 
@@ -69,7 +69,7 @@ impl Observer for Watch {
         self.saturations += step
             .events
             .iter()
-            .filter(|e: &&Event| matches!(e.kind, controllers::EventKind::SaturationStart { .. }))
+            .filter(|e| matches!(e.kind, EventKind::SaturationStart { .. }))
             .count();
         Ok(())
     }

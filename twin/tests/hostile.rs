@@ -378,3 +378,23 @@ fn overflowing_controller_designs_are_refused_when_built() {
         &["floor_gravity", "(0, 100]"],
     );
 }
+
+/// A URDF that renames what a scenario's sensor names: the error names both files
+/// (found by the property tests: a platform wheel renamed `nan`).
+#[test]
+fn a_renamed_urdf_part_named_by_the_scenario_names_the_urdf() {
+    let dir = scratch("renamed");
+    let urdf = include_str!("../../urdf/platform.urdf")
+        .replace("<wheel name=\"right_wheel\"", "<wheel name=\"nan\"");
+    std::fs::write(dir.join("m.urdf"), urdf).unwrap();
+    let toml = include_str!("../scenarios/platform-path.toml")
+        .replace("urdf = \"urdf/platform.urdf\"", "urdf = \"m.urdf\"");
+    std::fs::write(dir.join("m.toml"), toml).unwrap();
+    let output = twin(&["run", "m.toml", "--duration", "0.01"], &dir);
+    fails(
+        &output,
+        &["m.toml", "URDF m.urdf", "sensors.\"right_wheel.position\""],
+        &dir,
+        &["m.toml", "m.urdf"],
+    );
+}

@@ -152,14 +152,13 @@ fn run_one(
 
 /// `arm-milling` at a constant path speed, m/s.
 fn constant(speed: f64) -> Result<ScenarioBuilder, ReproduceError> {
-    let builder = Scenario::builtin(SCENARIO)
+    Scenario::builtin(SCENARIO)
         .and_then(|s| {
             s.controller("path-speed-constant")
                 .duration(CONSTANT_DURATION)
                 .set("controller.params.path_speed", speed)
         })
-        .map_err(crate::run::TwinError::from)?;
-    Ok(builder)
+        .map_err(|e| crate::run::TwinError::from(e).into())
 }
 
 /// The fastest constant path speed, on a grid of [`SPEED_STEP`], at which no motor current

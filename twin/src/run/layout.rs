@@ -116,6 +116,11 @@ impl SignalLayout {
         &self.movable
     }
 
+    /// Loop closures of the mechanism (one `loop_gap/<loop>` diagnostic each).
+    pub fn loop_count(&self) -> usize {
+        self.loops
+    }
+
     /// The mechanical energy within the diagnostics, J.
     pub fn mechanical_energy(&self, diagnostics: &[f64]) -> f64 {
         diagnostics[diagnostics.len() - 1]

@@ -51,15 +51,24 @@ pub enum TwinError {
         context: String,
         source: ControllerError,
     },
-    #[error("{source_name}: sensors.\"{signal}\": no such measured signal (known: {known})")]
+    /// The plant's signals come from the URDF (its joints) and the machine: both files are named.
+    #[error(
+        "{source_name} (URDF {urdf}): sensors.\"{signal}\": no such measured signal (known: {known})"
+    )]
     UnknownSensor {
         source_name: String,
+        urdf: String,
         signal: String,
         known: String,
     },
-    /// A `[[metrics]]` entry names a signal the run does not have.
-    #[error("{source_name}: {reason}")]
-    Metrics { source_name: String, reason: String },
+    /// A `[[metrics]]` entry names a signal the run does not have (the scenario's or the URDF's
+    /// mistake: both are named).
+    #[error("{source_name} (URDF {urdf}): {reason}")]
+    Metrics {
+        source_name: String,
+        urdf: String,
+        reason: String,
+    },
     #[error(transparent)]
     Recording(#[from] RecordingError),
     /// A caller's observer failed; the run stopped.
@@ -191,9 +200,9 @@ impl Twin {
             },
         )?;
         let actuated = mechanism.actuated_joints();
-        let mut layout = signal_layout(&mechanism, machine.as_ref(), scenario, &actuated);
         let mut actuators = joint_actuators(&mechanism, &actuated);
         actuators.extend(machine.extra_actuators());
+        let mut layout = signal_layout(&mechanism, machine.as_ref(), scenario, &actuators);
         let plant = PlantInterface {
             machine: scenario.machine.clone(),
             signals: layout.signals.clone(),
@@ -214,6 +223,7 @@ impl Twin {
             .collect::<Result<_, _>>()
             .map_err(|reason| TwinError::Metrics {
                 source_name: loaded.source.clone(),
+                urdf: loaded.urdf_source.clone(),
                 reason,
             })?;
         Ok(Self {
@@ -247,11 +257,6 @@ impl Twin {
     /// The plant as the controller sees it: its measured signals and actuators (with limits).
     pub fn plant(&self) -> &PlantInterface {
         &self.plant
-    }
-
-    /// The names behind every value of a step, known before the run.
-    pub fn layout(&self) -> &SignalLayout {
-        &self.layout
     }
 
     /// Runs the scenario; with `recording`, writes the .rrd there (atomically: a partial file
@@ -388,7 +393,7 @@ fn signal_layout(
     mechanism: &Mechanism,
     machine: &dyn Machine,
     scenario: &crate::scenario::Scenario,
-    actuated: &[usize],
+    actuators: &[Actuator],
 ) -> SignalLayout {
     let movable: Vec<usize> = (0..mechanism.joints.len())
         .filter(|&j| mechanism.joints[j].motion.is_movable())
@@ -399,11 +404,6 @@ fn signal_layout(
         .copied()
         .filter(|&j| !hidden.contains(&mechanism.joints[j].name))
         .collect();
-    let mut actuators: Vec<String> = actuated
-        .iter()
-        .map(|&j| mechanism.joints[j].name.clone())
-        .collect();
-    actuators.extend(machine.extra_actuators().into_iter().map(|a| a.joint));
     SignalLayout::new(
         mechanism,
         LayoutParts {
@@ -411,7 +411,7 @@ fn signal_layout(
             sensed,
             machine_signals: machine.signal_names(),
             has_reference: scenario.reference.is_some(),
-            actuators,
+            actuators: actuators.iter().map(|a| a.joint.clone()).collect(),
             machine_diagnostics: machine.diagnostic_names(),
         },
     )
@@ -431,6 +431,7 @@ fn bind_sensors(
             .position(|s| s == name)
             .ok_or_else(|| TwinError::UnknownSensor {
                 source_name: loaded.source.clone(),
+                urdf: loaded.urdf_source.clone(),
                 signal: name.clone(),
                 known: plant.signals.join(", "),
             })?;

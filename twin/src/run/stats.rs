@@ -24,10 +24,7 @@ impl Observer for RunStats {
         *self = Self {
             actuators: layout.actuators.clone(),
             internals: layout.internals.clone(),
-            has_loops: layout
-                .diagnostics
-                .iter()
-                .any(|d| d.starts_with("loop_gap/")),
+            has_loops: layout.loop_count() > 0,
             peak_effort: vec![0.0; layout.actuators.len()],
             saturated_samples: vec![0; layout.actuators.len()],
             ..Self::default()
