@@ -25,6 +25,10 @@ pub enum EventKind {
     Divergence,
     /// The run was stopped on request (a signal).
     Interruption,
+    /// An injected fault (the scenario's `[[faults]]` entry `name`) began.
+    FaultOnset { name: String },
+    /// An injected fault ended.
+    FaultCleared { name: String },
     /// Anything else worth a line in the log.
     Note,
 }

@@ -6,15 +6,18 @@
 pub mod analysis;
 pub mod energy;
 pub mod evaluate;
+pub mod faults;
 pub mod machines;
 pub mod mechanism;
 pub mod output;
 pub mod physics;
+pub mod plant;
 pub mod recording;
 pub mod reproduce;
 pub mod run;
 pub mod scenario;
 pub mod sensors;
+pub mod study;
 pub mod summary;
 pub mod urdf;
 

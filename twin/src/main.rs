@@ -41,6 +41,75 @@ enum Command {
     Analyze(twin::analysis::AnalyzeArgs),
     /// Turn what a killed run left (X.rrd.<random>.part) into a complete recording.
     Salvage(SalvageArgs),
+    /// Run a study: a scenario over grid and random axes, in parallel, scored against specs
+    /// (`twin sweep merge` joins shard folders).
+    Sweep(SweepArgs),
+}
+
+#[derive(clap::Args)]
+#[command(args_conflicts_with_subcommands = true, subcommand_negates_reqs = true)]
+struct SweepArgs {
+    #[command(subcommand)]
+    merge: Option<SweepCommand>,
+    /// A built-in scenario name or a scenario .toml file.
+    #[arg(required = true)]
+    scenario: Option<String>,
+    /// Set a scenario value for every run (as `twin run --set`), before the axes.
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    set: Vec<String>,
+    /// A grid axis: KEY=lin(a,b,n) | log(a,b,n) | [v1, v2, …] | v1,v2,… (`controller=osmc,smc2`
+    /// switches controllers); grid axes span a Cartesian product, the last varying fastest.
+    #[arg(long = "grid", value_name = "KEY=VALUES")]
+    grid: Vec<String>,
+    /// A random axis: KEY=normal(m,sd[,lo,hi]) | uniform(a,b) | lognormal(mu,sigma[,lo,hi]);
+    /// URDF values too (urdf.link.<link>.mass, urdf.joint.<joint>.damping, …).
+    #[arg(long = "random", value_name = "KEY=DISTRIBUTION")]
+    random: Vec<String>,
+    /// Runs per grid point (random draws per point).
+    #[arg(long, default_value_t = 1)]
+    samples: usize,
+    /// The study's seed: run i's sensor noise and draws come from (seed, i).
+    #[arg(long, default_value_t = 0)]
+    seed: u64,
+    /// A spec each run meets or not: METRIC<VALUE (or <=, >, >=); the report gives the share.
+    #[arg(long = "spec", value_name = "SPEC")]
+    spec: Vec<String>,
+    /// Runs at once (threads); default: every core.
+    #[arg(long)]
+    jobs: Option<usize>,
+    /// The study's folder.
+    #[arg(long, default_value = "study")]
+    out: PathBuf,
+    /// Which runs keep their recording (OUT/recordings/<index>.rrd).
+    #[arg(long, value_enum, default_value = "none")]
+    record: twin::study::RecordMode,
+    /// Skip the runs whose result OUT already holds (a killed study goes on where it stopped).
+    #[arg(long)]
+    resume: bool,
+    /// Run only run INDEX of the study (bit-identical to the same run inside the study).
+    #[arg(long, value_name = "INDEX")]
+    only: Option<usize>,
+    /// Run only shard i of n (runs with index ≡ i mod n); `auto` reads SLURM_ARRAY_TASK_ID and
+    /// SLURM_ARRAY_TASK_COUNT, or JOB_COMPLETION_INDEX (Kubernetes) with --shard-count.
+    #[arg(long, value_name = "i/n|auto")]
+    shard: Option<String>,
+    /// The shard count for `--shard auto` when the scheduler does not give it.
+    #[arg(long, value_name = "N")]
+    shard_count: Option<usize>,
+}
+
+#[derive(Subcommand)]
+enum SweepCommand {
+    /// Join shard folders into one study folder (results.csv and report.json byte-identical to
+    /// a single machine's run of the study).
+    Merge {
+        /// The shard folders.
+        #[arg(required = true)]
+        folders: Vec<PathBuf>,
+        /// The merged study's folder.
+        #[arg(long)]
+        out: PathBuf,
+    },
 }
 
 #[derive(clap::Args)]
@@ -137,6 +206,7 @@ fn main() -> ExitCode {
         Command::Bench(args) => bench(args, &registry),
         Command::Reproduce(args) => reproduce(args, &registry),
         Command::Salvage(args) => salvage(args),
+        Command::Sweep(args) => sweep(args, &registry),
         Command::Analyze(args) => twin::analysis::run(&args)
             .map(|summary| {
                 print!("{summary}");
@@ -309,6 +379,65 @@ fn reproduce(args: ReproduceArgs, registry: &Registry) -> Result<ExitCode, Failu
     let report = reproduce::reproduce(&args.paper, &args.out_dir, registry)?;
     print!("{}", reproduce::to_table(&report));
     println!("recordings and report.json: {}", args.out_dir.display());
+    Ok(ExitCode::SUCCESS)
+}
+
+fn sweep(args: SweepArgs, registry: &Registry) -> Result<ExitCode, Failure> {
+    use twin::study::{self, Shard, Study, StudyOptions};
+    if let Some(SweepCommand::Merge { folders, out }) = args.merge {
+        let merged = study::merge(&folders, &out)?;
+        print!("{}", study::report_table(&merged.report));
+        println!("merged {} runs into {}", merged.runs, out.display());
+        return Ok(ExitCode::SUCCESS);
+    }
+    let scenario = args.scenario.unwrap_or_default();
+    let specs = args
+        .spec
+        .iter()
+        .map(|s| study::Spec::parse(s))
+        .collect::<Result<Vec<_>, _>>()
+        .map_err(Failure::usage)?;
+    let shard = args
+        .shard
+        .as_deref()
+        .map(|s| Shard::parse(s, args.shard_count))
+        .transpose()
+        .map_err(Failure::usage)?;
+    let study = Study::new(
+        &scenario,
+        &args.set,
+        &args.grid,
+        &args.random,
+        args.samples,
+        args.seed,
+    )?;
+    let jobs = args.jobs.unwrap_or_else(|| {
+        std::thread::available_parallelism().map_or(1, std::num::NonZeroUsize::get)
+    });
+    let options = StudyOptions {
+        out: args.out.clone(),
+        jobs,
+        record: args.record,
+        resume: args.resume,
+        only: args.only,
+        shard,
+        specs,
+    };
+    let stop = stop_on_signals()?;
+    let outcome = study::run_study(&study, &options, registry, &stop)?;
+    print!("{}", study::report_table(&outcome.report));
+    println!(
+        "{} runs now, {} from before, {:.1} s ({:.2} runs/s on {jobs} jobs); results in {}",
+        outcome.ran,
+        outcome.skipped,
+        outcome.wall_s,
+        outcome.ran as f64 / outcome.wall_s.max(1e-9),
+        args.out.display()
+    );
+    if let Some(signal) = outcome.interrupted {
+        eprintln!("interrupted: finish the study with the same command and --resume");
+        return Ok(ExitCode::from(128 + signal.min(127) as u8));
+    }
     Ok(ExitCode::SUCCESS)
 }
 

@@ -2,6 +2,8 @@
 //! reference, process parameters, sensors, timing and recording options.
 
 use crate::evaluate::MetricSpec;
+use crate::faults::FaultSpec;
+use crate::plant::PlantValues;
 use crate::sensors::SensorSpec;
 use controllers::registry::{describe_toml_error, from_table, shortened};
 use models::reference::Reference;
@@ -133,6 +135,13 @@ pub struct Scenario {
     /// The figures the run is judged by (`[[metrics]]`), computed by evaluators.
     #[serde(default)]
     pub metrics: Vec<MetricSpec>,
+    /// Values replacing the URDF's (`[plant.link.<name>]`, `[plant.joint.<name>]`); `set` and
+    /// `--set` also take them as `urdf.link.<name>.mass=…`.
+    #[serde(default)]
+    pub plant: PlantValues,
+    /// Injected faults (`[[faults]]`), see [`crate::faults`].
+    #[serde(default)]
+    pub faults: Vec<FaultSpec>,
 }
 
 #[derive(Debug, Clone, Deserialize, PartialEq)]
@@ -237,6 +246,10 @@ impl Scenario {
         }
         if let Some(reference) = &self.reference {
             reference.validate()?;
+        }
+        self.plant.validate()?;
+        for (i, fault) in self.faults.iter().enumerate() {
+            fault.validate(i, self.duration)?;
         }
         for (i, metric) in self.metrics.iter().enumerate() {
             metric.validate()?;
@@ -619,16 +632,27 @@ impl ScenarioBuilder {
         })
     }
 
-    /// Sets a dotted key to a value: the one path of `set` and `assign`.
+    /// Sets a dotted key to a value: the one path of `set` and `assign`. A numeric segment
+    /// indexes an array of tables (`metrics.0.from`, `faults.1.start`); a leading `urdf.` is the
+    /// `[plant]` table (the URDF's values: `urdf.link.ram.mass`).
     fn put(&mut self, key: &str, value: ScenarioValue) -> Result<(), String> {
-        let path = key_path(key)?;
+        let mut path = key_path(key)?;
         let value = value.0?;
+        if path.len() > 1 && path[0] == "urdf" {
+            path[0] = "plant".into();
+        }
         let (last, parents) = path.split_last().ok_or("empty key")?;
         let mut current = &mut self.table;
-        for part in parents {
-            current = current
+        let mut parts = parents.iter();
+        while let Some(part) = parts.next() {
+            let entry = current
                 .entry(part.as_str())
-                .or_insert_with(|| toml::Value::Table(toml::Table::new()))
+                .or_insert_with(|| toml::Value::Table(toml::Table::new()));
+            let entry = match entry {
+                toml::Value::Array(items) => array_entry(items, part, parts.next())?,
+                other => other,
+            };
+            current = entry
                 .as_table_mut()
                 .ok_or_else(|| format!("`{part}` is not a table"))?;
         }
@@ -636,6 +660,21 @@ impl ScenarioBuilder {
         self.changed = true;
         Ok(())
     }
+}
+
+/// The entry of the array `name` that the key's next segment, an index, picks.
+fn array_entry<'a>(
+    items: &'a mut [toml::Value],
+    name: &str,
+    index: Option<&String>,
+) -> Result<&'a mut toml::Value, String> {
+    let count = items.len();
+    let index = index
+        .and_then(|i| i.parse::<usize>().ok())
+        .ok_or_else(|| format!("`{name}` is an array: give an entry's index (`{name}.0.…`)"))?;
+    items
+        .get_mut(index)
+        .ok_or_else(|| format!("`{name}` has {count} entries; there is no `{name}.{index}`"))
 }
 
 type UrdfLookup = (Result<String, String>, String);

@@ -168,6 +168,8 @@ pub struct Arm {
     spindle_speed: f64,
     cut: CutLoad,
     cut_force: [f64; 2],
+    /// Process-fault factor on the cutting forces (1: none).
+    process_factor: f64,
     /// ∂cut_force/∂(tool velocity), N·s/m.
     cut_damping: [[f64; 2]; 2],
     spindle_torque: f64,
@@ -260,6 +262,7 @@ impl Arm {
             spindle_speed: 0.0,
             cut: CutLoad::default(),
             cut_force: [0.0; 2],
+            process_factor: 1.0,
             cut_damping: NO_DAMPING,
             spindle_torque: 0.0,
             time: 0.0,
@@ -278,9 +281,12 @@ impl Arm {
         let cut_at = |velocity: [f64; 2]| -> (CutLoad, [f64; 2]) {
             let right = [seen.tangent[1], -seen.tangent[0]];
             let path_speed = velocity[0] * seen.tangent[0] + velocity[1] * seen.tangent[1];
-            let cut = self
+            let mut cut = self
                 .cutter
                 .load(mode, radial_depth, path_speed, self.spindle_speed);
+            cut.along *= self.process_factor;
+            cut.towards_stock *= self.process_factor;
+            cut.torque *= self.process_factor;
             let force = [
                 cut.along * seen.tangent[0] + cut.towards_stock * right[0],
                 cut.along * seen.tangent[1] + cut.towards_stock * right[1],
@@ -423,6 +429,11 @@ impl Machine for Arm {
             DrivePower::On => self.spindle.step(dt, self.spindle_speed),
             DrivePower::Off => 0.0,
         };
+    }
+
+    fn set_process_factor(&mut self, factor: f64) -> bool {
+        self.process_factor = factor;
+        true
     }
 
     fn loads(&mut self, _time: f64, state: &MechanismState, loads: &mut Vec<Load>) {

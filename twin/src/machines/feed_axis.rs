@@ -96,6 +96,8 @@ pub struct FeedAxis {
     drive: Drive,
     cut: Option<MicroMillingCut>,
     cutting_force: f64,
+    /// Process-fault factor on the cutting forces (1: none).
+    process_factor: f64,
     cutting_force_peak: f64,
 }
 
@@ -154,6 +156,7 @@ impl FeedAxis {
             },
             cut: params.cutting.then_some(cut),
             cutting_force: 0.0,
+            process_factor: 1.0,
             cutting_force_peak: 0.0,
         })
     }
@@ -177,10 +180,11 @@ impl Machine for FeedAxis {
     ) {
         let velocity = state.joint_velocities[self.table_joint];
         signals[0] = self.drive.current;
-        self.cutting_force = self
-            .cut
-            .as_ref()
-            .map_or(0.0, |cut| cut.force_on_axis(time, velocity));
+        self.cutting_force = self.process_factor
+            * self
+                .cut
+                .as_ref()
+                .map_or(0.0, |cut| cut.force_on_axis(time, velocity));
         self.cutting_force_peak = self.cutting_force_peak.max(self.cutting_force.abs());
         diagnostics[0] = self.cutting_force;
     }
@@ -188,6 +192,11 @@ impl Machine for FeedAxis {
     fn drive(&mut self, _dt: f64, commanded: &[f64], applied: &mut [f64]) {
         applied.copy_from_slice(commanded);
         applied[self.table_actuator] = self.drive.force(commanded[self.table_actuator]);
+    }
+
+    fn set_process_factor(&mut self, factor: f64) -> bool {
+        self.process_factor = factor;
+        true
     }
 
     fn loads(&mut self, _time: f64, state: &MechanismState, loads: &mut Vec<Load>) {

@@ -83,6 +83,8 @@ pub struct ParallelLathe {
     /// The machined shoulder of each tool along its slide travel, m.
     shoulders: [f64; TOOLS],
     cuts: [Cut; TOOLS],
+    /// Process-fault factor on the cutting forces (1: none).
+    process_factor: f64,
     power: f64,
     record: CutRecord,
 }
@@ -154,6 +156,7 @@ impl ParallelLathe {
             spindle_centre: [centre.x, centre.y],
             shoulders: params.approach_gaps,
             cuts: [Cut::default(); TOOLS],
+            process_factor: 1.0,
             power: 0.0,
         })
     }
@@ -202,7 +205,7 @@ impl Machine for ParallelLathe {
                 (0.0, 0.0)
             };
             let force = if in_material && turning {
-                tool.cutting_force(cutting_speed, feed)
+                self.process_factor * tool.cutting_force(cutting_speed, feed)
             } else {
                 0.0
             };
@@ -225,6 +228,11 @@ impl Machine for ParallelLathe {
             self.lathe.params(),
             self.settle_band,
         );
+    }
+
+    fn set_process_factor(&mut self, factor: f64) -> bool {
+        self.process_factor = factor;
+        true
     }
 
     fn loads(&mut self, _time: f64, state: &MechanismState, loads: &mut Vec<Load>) {

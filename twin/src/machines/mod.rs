@@ -69,6 +69,12 @@ pub trait Machine {
     /// Process loads (cutting, contact) acting during the coming step.
     fn loads(&mut self, _time: f64, _state: &MechanismState, _loads: &mut Vec<Load>) {}
 
+    /// Scales the process forces from now on (a process fault: 0 a broken tool, k > 1 a hard
+    /// spot); `false` when the machine has no cutting process to scale.
+    fn set_process_factor(&mut self, _factor: f64) -> bool {
+        false
+    }
+
     /// Figures of the machine's process that need its own state (cuts made, contour finished),
     /// by name. Figures judged from signals are the scenario's `[[metrics]]`, computed by
     /// evaluators outside the machine.

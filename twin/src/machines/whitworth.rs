@@ -39,6 +39,8 @@ pub struct Whitworth {
     crank_reversals: usize,
     cutting: Option<Cutting>,
     contact_force: f64,
+    /// Process-fault factor on the contact force (1: none).
+    process_factor: f64,
 }
 
 /// Dead band on the crank speed when counting reversals, rad/s.
@@ -79,6 +81,7 @@ impl Whitworth {
             crank_reversals: 0,
             cutting,
             contact_force: 0.0,
+            process_factor: 1.0,
         })
     }
 }
@@ -120,7 +123,8 @@ impl Machine for Whitworth {
         diagnostics[0] = model_error;
         diagnostics[1] = velocity_error;
         if let Some(cutting) = self.cutting.as_mut() {
-            self.contact_force = cutting.contact_force(ram_position, ram_velocity);
+            self.contact_force =
+                self.process_factor * cutting.contact_force(ram_position, ram_velocity);
             diagnostics[2] = self.contact_force;
             cutting.observe(time, ram_position, ram_velocity);
         }
@@ -137,6 +141,11 @@ impl Machine for Whitworth {
         self.ram_highest = self.ram_highest.max(ram_position);
         self.ram_lowest = self.ram_lowest.min(ram_position);
         self.crank_start.get_or_insert(self.crank_angle);
+    }
+
+    fn set_process_factor(&mut self, factor: f64) -> bool {
+        self.process_factor = factor;
+        true
     }
 
     fn loads(&mut self, _time: f64, state: &MechanismState, loads: &mut Vec<Load>) {

@@ -18,7 +18,7 @@ mod dense;
 mod dynamics;
 mod rapier_model;
 
-use crate::mechanism::{JointMotion, Mechanism, Pose2};
+use crate::mechanism::{Inertial, JointMotion, Mechanism, Pose2};
 use dynamics::{Dynamics, HeldLoad, Inputs, Kinematics, Model};
 use rapier_model::RapierModel;
 
@@ -122,6 +122,21 @@ impl Physics {
         // The URDF pose is assembled to 1 µm (the loader checks): start exactly closed.
         physics.close_loops();
         physics
+    }
+
+    /// Changes a link's mass properties from the next step on (a plant fault).
+    pub fn set_link_inertial(&mut self, link: usize, inertial: Inertial) {
+        if let Some(slot) = self.model.mechanism.links.get_mut(link) {
+            slot.inertial = Some(inertial);
+        }
+    }
+
+    /// Changes a tree joint's viscous damping and dry friction from the next step on.
+    pub fn set_joint_dynamics(&mut self, joint: usize, damping: f64, friction: f64) {
+        if let Some(g) = self.model.dof_of_joint.get(joint).copied().flatten() {
+            self.model.damping[g] = damping;
+            self.model.friction[g] = friction;
+        }
     }
 
     /// Applies one step's joint efforts (per tree joint, URDF sign; N·m or N) and loads, then

@@ -22,11 +22,13 @@ mod blueprint;
 mod live;
 mod plots;
 mod salvage;
+mod study;
 mod writer;
 
 pub use controllers::EventLevel;
 pub use plots::{write_plot, Plot2D, PlotGeometry, PlotLayer};
 pub use salvage::{salvage, SalvageReport};
+pub use study::{write_study_plots, Histogram, Scatter, StudyPlots};
 
 use std::path::{Path, PathBuf};
 use std::sync::Arc;

@@ -13,6 +13,7 @@ pub use layout::SignalLayout;
 pub use observer::{Findings, Observer, ObserverError, StepView};
 
 use crate::evaluate::Evaluator;
+use crate::faults::FaultSet;
 use crate::machines::{self, Machine, MachineError};
 use crate::mechanism::{JointMotion, Mechanism};
 use crate::physics::MechanismState;
@@ -65,6 +66,20 @@ pub enum TwinError {
     /// mistake: both are named).
     #[error("{source_name} (URDF {urdf}): {reason}")]
     Metrics {
+        source_name: String,
+        urdf: String,
+        reason: String,
+    },
+    /// A `[[faults]]` entry names a signal, actuator, link or joint the run lacks.
+    #[error("{source_name} (URDF {urdf}): {reason}")]
+    Faults {
+        source_name: String,
+        urdf: String,
+        reason: String,
+    },
+    /// A `[plant]` value names a link or joint the URDF lacks (both files are named).
+    #[error("{source_name} (URDF {urdf}): {reason}")]
+    PlantValue {
         source_name: String,
         urdf: String,
         reason: String,
@@ -165,6 +180,8 @@ pub struct Twin {
     actuated: Vec<usize>,
     /// The scenario's `[[metrics]]`, bound to the layout.
     evaluators: Vec<Evaluator>,
+    /// The scenario's `[[faults]]`, bound to the run.
+    faults: FaultSet,
     /// A viewer to stream the run to, besides the recording file.
     live: Option<LiveViewer>,
     /// Polled every step; see [`Twin::with_stop_flag`].
@@ -191,14 +208,21 @@ impl Twin {
         mut controller: Box<dyn Controller>,
     ) -> Result<Self, TwinError> {
         let scenario = &loaded.scenario;
-        let mechanism = urdf::load_str(&loaded.urdf_text, &loaded.urdf_source)?;
-        let machine = machines::build(&scenario.machine, &mechanism, &scenario.process).map_err(
-            |source| TwinError::Machine {
+        let mut mechanism = urdf::load_str(&loaded.urdf_text, &loaded.urdf_source)?;
+        scenario
+            .plant
+            .apply(&mut mechanism)
+            .map_err(|reason| TwinError::PlantValue {
+                source_name: loaded.source.clone(),
+                urdf: loaded.urdf_source.clone(),
+                reason,
+            })?;
+        let mut machine = machines::build(&scenario.machine, &mechanism, &scenario.process)
+            .map_err(|source| TwinError::Machine {
                 scenario: loaded.source.clone(),
                 urdf: loaded.urdf_source.clone(),
                 source,
-            },
-        )?;
+            })?;
         let actuated = mechanism.actuated_joints();
         let mut actuators = joint_actuators(&mechanism, &actuated);
         actuators.extend(machine.extra_actuators());
@@ -226,6 +250,20 @@ impl Twin {
                 urdf: loaded.urdf_source.clone(),
                 reason,
             })?;
+        let has_process = machine.set_process_factor(1.0);
+        let faults = FaultSet::bind(
+            &scenario.faults,
+            &plant.signals,
+            &plant.actuators,
+            &mechanism,
+            has_process,
+            scenario.seed,
+        )
+        .map_err(|reason| TwinError::Faults {
+            source_name: loaded.source.clone(),
+            urdf: loaded.urdf_source.clone(),
+            reason,
+        })?;
         Ok(Self {
             loaded,
             mechanism,
@@ -236,6 +274,7 @@ impl Twin {
             sensors,
             actuated,
             evaluators,
+            faults,
             live: None,
             stop: None,
         })

@@ -4,6 +4,7 @@ use super::observer::{Observer, StepView};
 use super::stats::Digest;
 use super::{observer_error, Divergence, Interruption, Twin, TwinError};
 use crate::energy::mechanical_energy;
+use crate::faults::PlantChange;
 use crate::physics::{Load, MechanismState, Physics, SolverSettings};
 use crate::sensors::Noise;
 use controllers::{Event, EventKind, Measurement};
@@ -33,6 +34,7 @@ struct Buffers {
     events: Vec<Event>,
     joint_efforts: Vec<f64>,
     loads: Vec<Load>,
+    plant_changes: Vec<PlantChange>,
 }
 
 /// A twin being run.
@@ -93,6 +95,7 @@ impl<'t> Session<'t> {
         let mut step = 0;
         loop {
             let time = step as f64 * self.dt;
+            self.apply_faults(time);
             self.sense(time);
             let mut failure =
                 self.twin
@@ -105,6 +108,7 @@ impl<'t> Session<'t> {
             if control_update {
                 self.control(time);
                 failure = failure.or_else(|| self.limit(step, time));
+                self.twin.faults.actuators(&mut self.values.limited);
             }
             self.twin
                 .machine
@@ -129,6 +133,33 @@ impl<'t> Session<'t> {
             }
             self.advance(time);
             step += 1;
+        }
+    }
+
+    /// Starts and ends faults; a plant or process fault changes the physics or the machine.
+    fn apply_faults(&mut self, time: f64) {
+        let twin = &mut *self.twin;
+        twin.faults.update(time, &mut self.values.events);
+        if let Some(factor) = twin.faults.process_factor() {
+            twin.machine.set_process_factor(factor);
+        }
+        twin.faults.plant(time, &mut self.values.plant_changes);
+        for change in &self.values.plant_changes {
+            match *change {
+                PlantChange::Link { link, inertial } => {
+                    self.physics.set_link_inertial(link, inertial);
+                    twin.mechanism.links[link].inertial = Some(inertial);
+                }
+                PlantChange::Joint {
+                    joint,
+                    damping,
+                    friction,
+                } => {
+                    self.physics.set_joint_dynamics(joint, damping, friction);
+                    let joint = &mut twin.mechanism.joints[joint];
+                    (joint.damping, joint.friction) = (damping, friction);
+                }
+            }
         }
     }
 
@@ -161,6 +192,7 @@ impl<'t> Session<'t> {
                 None => values.signals[i],
             };
         }
+        twin.faults.sensors(time, &mut values.measured);
         values.commanded.fill(0.0);
         twin.controller.update(
             &Measurement {
