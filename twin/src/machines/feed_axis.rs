@@ -196,7 +196,7 @@ impl Machine for FeedAxis {
 
     fn set_process_factor(&mut self, factor: f64) -> bool {
         self.process_factor = factor;
-        true
+        self.cut.is_some()
     }
 
     fn loads(&mut self, _time: f64, state: &MechanismState, loads: &mut Vec<Load>) {

@@ -145,7 +145,7 @@ impl Machine for Whitworth {
 
     fn set_process_factor(&mut self, factor: f64) -> bool {
         self.process_factor = factor;
-        true
+        self.cutting.is_some()
     }
 
     fn loads(&mut self, _time: f64, state: &MechanismState, loads: &mut Vec<Load>) {
