@@ -152,7 +152,12 @@ pub fn read_runs(folder: &Path) -> Result<Vec<RunRecord>, StudyError> {
                 .and_then(|s| s.to_str())
                 .is_some_and(|s| s.parse::<usize>().is_ok());
         if is_record {
-            records.push(RunRecord::read(&path)?);
+            // The summary (wall time, digest) is not in the results: not kept for thousands of runs.
+            let record = RunRecord::read(&path)?;
+            records.push(RunRecord {
+                summary: None,
+                ..record
+            });
         }
     }
     records.sort_by_key(|r| r.index);
