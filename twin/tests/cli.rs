@@ -251,3 +251,84 @@ fn bad_viewer_url() {
         "connect",
     );
 }
+
+#[test]
+fn sweep_records_failed_runs_reports_plainly_and_refuses_bad_studies_before_writing() {
+    let dir = scratch("sweep");
+    let args = [
+        "sweep",
+        "whitworth-crank-pi",
+        "--set",
+        "duration=0.2",
+        "--grid",
+        "health.max_joint_speed=[1e-6, 1e3]",
+        "--samples",
+        "2",
+        "--record",
+        "failed",
+        "--out",
+        "s",
+    ];
+    let output = twin(&args, &dir);
+    let stdout = String::from_utf8_lossy(&output.stdout);
+    assert!(
+        output.status.success(),
+        "{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    // Not a terminal: plain progress lines, one per failure and the last count.
+    assert!(
+        stdout.contains("run 0 failed: run diverged at step"),
+        "{stdout}"
+    );
+    assert!(stdout.contains("4/4 runs done, 2 failed"), "{stdout}");
+    assert!(stdout.contains("failure rate 50.0 %"), "{stdout}");
+    let mut kept: Vec<String> = std::fs::read_dir(dir.join("s/recordings"))
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    kept.sort();
+    assert_eq!(kept, ["0.rrd", "1.rrd"], "only the failed runs' recordings");
+    for file in ["study.json", "results.csv", "report.json", "study.rrd"] {
+        assert!(dir.join("s").join(file).is_file(), "{file}");
+    }
+    let merged = twin(&["sweep", "merge", "s", "--out", "m"], &dir);
+    assert!(merged.status.success());
+    assert_eq!(
+        std::fs::read(dir.join("s/results.csv")).unwrap(),
+        std::fs::read(dir.join("m/results.csv")).unwrap()
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+    let base = ["sweep", "whitworth-crank-pi", "--out", "s"];
+    let with = |extra: &[&'static str]| [&base[..], extra].concat();
+    fails_naming(
+        &with(&["--shard", "3/2"]),
+        &["--shard 3/2", "out of range"],
+        "sweep-shard",
+    );
+    fails_naming(
+        &with(&["--grid", "k=log(0,1,3)"]),
+        &["--grid k=log(0,1,3)", "a > 0"],
+        "sweep-grid",
+    );
+    fails_naming(
+        &with(&["--spec", "mse=1"]),
+        &["--spec mse=1", "metric<value"],
+        "sweep-spec",
+    );
+    fails_naming(
+        &with(&["--samples", "0"]),
+        &["--samples must be ≥ 1"],
+        "sweep-samples",
+    );
+    fails_naming(
+        &with(&["--set", "controller.params.bogus=1"]),
+        &["run 0:", "bogus"],
+        "sweep-key",
+    );
+    fails_naming(
+        &["sweep", "merge", "nowhere", "--out", "m"],
+        &["nowhere"],
+        "sweep-merge",
+    );
+}
