@@ -87,6 +87,14 @@ enum ValueRule {
 }
 
 impl FaultKind {
+    /// The kind as the scenario spells it (`sensor_stuck`).
+    fn name(self) -> String {
+        serde_json::to_value(self)
+            .ok()
+            .and_then(|v| v.as_str().map(String::from))
+            .unwrap_or_default()
+    }
+
     fn subject(self) -> Subject {
         use FaultKind::*;
         match self {
@@ -145,7 +153,7 @@ impl FaultSpec {
             Subject::Process => (None, &None),
         };
         if let Some(needed) = needed.filter(|_| field.is_none()) {
-            return Err(format!("{name}: {:?} needs `{needed}`", self.kind));
+            return Err(format!("{name}: {} needs `{needed}`", self.kind.name()));
         }
         let given = [
             ("signal", &self.signal),
@@ -175,13 +183,7 @@ impl FaultSpec {
     }
 
     fn label(&self, index: usize) -> String {
-        self.name.clone().unwrap_or_else(|| {
-            let kind = serde_json::to_value(self.kind)
-                .ok()
-                .and_then(|v| v.as_str().map(String::from))
-                .unwrap_or_default();
-            format!("{kind}_{index}")
-        })
+        (self.name.clone()).unwrap_or_else(|| format!("{}_{index}", self.kind.name()))
     }
 }
 
@@ -219,7 +221,7 @@ struct Fault {
 }
 
 /// The run's faults.
-#[derive(Debug, Clone, Default)]
+#[derive(Debug, Clone)]
 pub struct FaultSet {
     faults: Vec<Fault>,
     process_factor: f64,
@@ -296,8 +298,8 @@ impl FaultSet {
                 }
                 Subject::Process if !has_process => {
                     return Err(format!(
-                        "faults.{i}: this machine has no cutting process for a {:?} fault",
-                        spec.kind
+                        "faults.{i}: this machine has no cutting process for a {} fault",
+                        spec.kind.name()
                     ))
                 }
                 Subject::Process => Target::Process,
@@ -335,7 +337,7 @@ impl FaultSet {
                     .map_or(String::new(), |v| format!(" (value {v})"));
                 Event::warning(
                     EventKind::FaultOnset { name: name.clone() },
-                    format!("fault {name} begins: {:?}{value}", fault.spec.kind),
+                    format!("fault {name} begins: {}{value}", fault.spec.kind.name()),
                 )
             } else {
                 Event::info(
@@ -446,11 +448,7 @@ impl FaultSet {
         match self.faults[i].target {
             Target::Link { link, urdf } => Some(PlantChange::Link {
                 link,
-                inertial: Inertial {
-                    mass: value,
-                    izz: urdf.izz * value / urdf.mass,
-                    ..urdf
-                },
+                inertial: urdf.with_mass(value),
             }),
             Target::Joint {
                 joint,

@@ -83,6 +83,17 @@ pub struct Inertial {
     pub izz: f64,
 }
 
+impl Inertial {
+    /// The same body with another mass: izz scales with it (same shape, other density).
+    pub fn with_mass(self, mass: f64) -> Self {
+        Self {
+            mass,
+            izz: self.izz * mass / self.mass,
+            ..self
+        }
+    }
+}
+
 #[derive(Debug, Clone, PartialEq)]
 pub struct Link {
     pub name: String,

@@ -88,8 +88,7 @@ impl PlantValues {
                 format!("plant.link.{name}: the link has no <inertial> (the fixed root)")
             })?;
             if let Some(mass) = values.mass {
-                inertial.izz *= mass / inertial.mass;
-                inertial.mass = mass;
+                *inertial = inertial.with_mass(mass);
             }
             if let Some(izz) = values.izz {
                 inertial.izz = izz;

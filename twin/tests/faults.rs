@@ -6,14 +6,15 @@ use twin::{
     LoadedScenario, Observer, ObserverError, RunSummary, Scenario, SignalLayout, StepView, Twin,
 };
 
-/// At every control update: time, the true and measured crank speed, the crank's limited
-/// (drive) command and applied effort; and every event.
+/// At every control update: time, the true and measured crank speed and the crank's applied
+/// effort; at every step the shaper's contact force (when it cuts); every event.
 #[derive(Default)]
 struct Trace {
     signal: usize,
     actuator: usize,
     rows: Vec<[f64; 4]>,
-    diagnostics: Vec<(f64, Vec<f64>)>,
+    contact: Option<usize>,
+    contact_force: Vec<f64>,
     events: Vec<Event>,
 }
 
@@ -21,13 +22,15 @@ impl Observer for Trace {
     fn start(&mut self, layout: &SignalLayout) -> Result<(), ObserverError> {
         self.signal = layout.signal("crank.velocity").ok_or("no crank.velocity")?;
         self.actuator = layout.actuator("crank").ok_or("no crank actuator")?;
+        self.contact = layout.diagnostic("contact_force");
         Ok(())
     }
 
     fn observe(&mut self, view: &StepView) -> Result<(), ObserverError> {
         self.events.extend(view.events.iter().cloned());
-        self.diagnostics
-            .push((view.time, view.diagnostics.to_vec()));
+        if let Some(contact) = self.contact {
+            self.contact_force.push(view.diagnostics[contact]);
+        }
         if view.control_update {
             self.rows.push([
                 view.time,
@@ -208,13 +211,7 @@ fn tool_breakage_removes_the_cutting_force_and_a_hard_spot_scales_it() {
     let contact = |faults: &str| traced(scenario("whitworth-cutting", faults, 3.0)).1;
     let healthy = contact("");
     let broken = contact("[[faults]]\nkind = \"tool_breakage\"\nstart = 0.0\n");
-    let index = diagnostic_index("whitworth-cutting", "contact_force");
-    let peak = |t: &Trace| {
-        t.diagnostics
-            .iter()
-            .map(|(_, d)| d[index].abs())
-            .fold(0.0, f64::max)
-    };
+    let peak = |t: &Trace| t.contact_force.iter().fold(0.0, |m: f64, f| m.max(f.abs()));
     assert!(peak(&healthy) > 100.0, "the ram cuts: {} N", peak(&healthy));
     assert_eq!(peak(&broken), 0.0);
     let hard = contact("[[faults]]\nkind = \"hard_spot\"\nvalue = 2.0\nstart = 0.0\n");
@@ -224,24 +221,6 @@ fn tool_breakage_removes_the_cutting_force_and_a_hard_spot_scales_it() {
         peak(&hard),
         peak(&healthy)
     );
-}
-
-fn diagnostic_index(name: &str, diagnostic: &str) -> usize {
-    struct Find(String, Option<usize>);
-    impl Observer for Find {
-        fn start(&mut self, layout: &SignalLayout) -> Result<(), ObserverError> {
-            self.1 = layout.diagnostic(&self.0);
-            Ok(())
-        }
-        fn observe(&mut self, _view: &StepView) -> Result<(), ObserverError> {
-            Ok(())
-        }
-    }
-    let mut find = Find(diagnostic.into(), None);
-    Twin::new(scenario(name, "", 0.01), &Registry::builtin())
-        .and_then(|twin| twin.run_with(None, &mut [&mut find]))
-        .unwrap();
-    find.1.unwrap()
 }
 
 #[test]

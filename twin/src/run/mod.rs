@@ -62,24 +62,11 @@ pub enum TwinError {
         signal: String,
         known: String,
     },
-    /// A `[[metrics]]` entry names a signal the run does not have (the scenario's or the URDF's
-    /// mistake: both are named).
+    /// A `[[metrics]]`, `[[faults]]` or `[plant]` entry names a signal, actuator, link or joint
+    /// the run lacks, or asks what this run cannot do (the scenario's or the URDF's mistake: both
+    /// are named; `reason` names the entry).
     #[error("{source_name} (URDF {urdf}): {reason}")]
-    Metrics {
-        source_name: String,
-        urdf: String,
-        reason: String,
-    },
-    /// A `[[faults]]` entry names a signal, actuator, link or joint the run lacks.
-    #[error("{source_name} (URDF {urdf}): {reason}")]
-    Faults {
-        source_name: String,
-        urdf: String,
-        reason: String,
-    },
-    /// A `[plant]` value names a link or joint the URDF lacks (both files are named).
-    #[error("{source_name} (URDF {urdf}): {reason}")]
-    PlantValue {
+    Binding {
         source_name: String,
         urdf: String,
         reason: String,
@@ -208,15 +195,14 @@ impl Twin {
         mut controller: Box<dyn Controller>,
     ) -> Result<Self, TwinError> {
         let scenario = &loaded.scenario;
+        // A scenario entry naming what the URDF or the run lacks.
+        let binding = |reason: String| TwinError::Binding {
+            source_name: loaded.source.clone(),
+            urdf: loaded.urdf_source.clone(),
+            reason,
+        };
         let mut mechanism = urdf::load_str(&loaded.urdf_text, &loaded.urdf_source)?;
-        scenario
-            .plant
-            .apply(&mut mechanism)
-            .map_err(|reason| TwinError::PlantValue {
-                source_name: loaded.source.clone(),
-                urdf: loaded.urdf_source.clone(),
-                reason,
-            })?;
+        scenario.plant.apply(&mut mechanism).map_err(binding)?;
         let mut machine = machines::build(&scenario.machine, &mechanism, &scenario.process)
             .map_err(|source| TwinError::Machine {
                 scenario: loaded.source.clone(),
@@ -245,11 +231,7 @@ impl Twin {
             .iter()
             .map(|spec| Evaluator::bind(spec, &layout))
             .collect::<Result<_, _>>()
-            .map_err(|reason| TwinError::Metrics {
-                source_name: loaded.source.clone(),
-                urdf: loaded.urdf_source.clone(),
-                reason,
-            })?;
+            .map_err(binding)?;
         let has_process = machine.set_process_factor(1.0);
         let faults = FaultSet::bind(
             &scenario.faults,
@@ -259,11 +241,7 @@ impl Twin {
             has_process,
             scenario.seed,
         )
-        .map_err(|reason| TwinError::Faults {
-            source_name: loaded.source.clone(),
-            urdf: loaded.urdf_source.clone(),
-            reason,
-        })?;
+        .map_err(binding)?;
         Ok(Self {
             loaded,
             mechanism,

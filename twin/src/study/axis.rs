@@ -3,6 +3,7 @@
 //! to `[lo, hi]` by two more arguments) are drawn per run from a generator seeded by (study seed,
 //! run index), so a run is reproducible alone.
 
+use crate::sensors::Noise;
 use serde::{Deserialize, Serialize};
 
 /// Most points one grid axis may have.
@@ -224,7 +225,7 @@ impl RandomAxis {
     }
 
     /// One draw; a truncated axis redraws until the value is inside its window.
-    pub fn draw(&self, rng: &mut Rng) -> Result<f64, String> {
+    pub fn draw(&self, rng: &mut Noise) -> Result<f64, String> {
         for _ in 0..MAX_TRUNCATED_DRAWS {
             let value = match self.distribution {
                 Distribution::Normal { mean, sd } => mean + sd * rng.gaussian(),
@@ -243,40 +244,10 @@ impl RandomAxis {
     }
 }
 
-/// SplitMix64 with Box–Muller: the same numbers on every machine for the same seed.
-#[derive(Debug, Clone)]
-pub struct Rng(u64);
-
-impl Rng {
-    pub fn new(seed: u64) -> Self {
-        Self(seed)
-    }
-
-    pub fn next_u64(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-
-    /// Uniform in [0, 1) with 53 random bits.
-    pub fn uniform(&mut self) -> f64 {
-        (self.next_u64() >> 11) as f64 / (1u64 << 53) as f64
-    }
-
-    /// Standard normal (Box–Muller, one of the pair).
-    pub fn gaussian(&mut self) -> f64 {
-        let u1 = 1.0 - self.uniform();
-        let u2 = self.uniform();
-        (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
-    }
-}
-
 /// A run's seed from the study's seed and the run's index: the run's sensor noise and its
 /// random-axis draws come from it alone. Kept below 2⁶³ (a TOML integer).
 pub fn run_seed(study_seed: u64, index: usize) -> u64 {
-    let mut rng = Rng::new(study_seed ^ (index as u64).wrapping_mul(0xD1B5_4A32_D192_ED03));
+    let mut rng = Noise::new(study_seed ^ (index as u64).wrapping_mul(0xD1B5_4A32_D192_ED03));
     rng.next_u64() >> 1
 }
 
@@ -327,7 +298,7 @@ mod tests {
     fn draws_follow_their_distribution_and_window() {
         let axis =
             RandomAxis::parse(&AxisText::parse("m=normal(5,0.25)", "--random").unwrap()).unwrap();
-        let mut rng = Rng::new(7);
+        let mut rng = Noise::new(7);
         let draws: Vec<f64> = (0..20_000).map(|_| axis.draw(&mut rng).unwrap()).collect();
         let mean = draws.iter().sum::<f64>() / draws.len() as f64;
         let var = draws.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / draws.len() as f64;

@@ -3,7 +3,6 @@
 
 use super::results::{self, RunRecord, Spec};
 use super::{RunPlan, Study, StudyDefinition, StudyError};
-use crate::output::OutputFile;
 use crate::{summary, StopFlag, Twin};
 use controllers::Registry;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
@@ -189,18 +188,9 @@ pub fn run_study(
 }
 
 /// Checks that a `study.json` already in `out` is this study's.
-fn check_folder(out: &Path, file: &StudyFile) -> Result<(), StudyError> {
-    let path = out.join("study.json");
-    if path.exists() {
-        let text = std::fs::read_to_string(&path).map_err(|e| StudyError::Io {
-            path: path.clone(),
-            reason: e.to_string(),
-        })?;
-        let found: StudyFile = serde_json::from_str(&text).map_err(|e| StudyError::Mismatch {
-            folder: out.to_path_buf(),
-            reason: format!("study.json unreadable: {e}"),
-        })?;
-        if let Some(reason) = difference(&found, file) {
+pub(super) fn check_folder(out: &Path, file: &StudyFile) -> Result<(), StudyError> {
+    if out.join("study.json").exists() {
+        if let Some(reason) = difference(&read_study_file(out)?, file) {
             return Err(StudyError::Mismatch {
                 folder: out.to_path_buf(),
                 reason,
@@ -210,18 +200,26 @@ fn check_folder(out: &Path, file: &StudyFile) -> Result<(), StudyError> {
     Ok(())
 }
 
-/// Creates the folder and writes `study.json`.
-fn write_study_file(out: &Path, file: &StudyFile) -> Result<(), StudyError> {
-    let io = |path: &Path, reason: String| StudyError::Io {
-        path: path.to_path_buf(),
-        reason,
-    };
-    std::fs::create_dir_all(out.join("runs")).map_err(|e| io(out, e.to_string()))?;
-    let path = out.join("study.json");
-    let text = serde_json::to_string_pretty(file).map_err(|e| io(&path, e.to_string()))?;
-    OutputFile::create(&path)
-        .and_then(|f| f.commit((text + "\n").as_bytes()))
-        .map_err(|e| io(&path, e.reason))
+/// The `study.json` of a study folder.
+pub(super) fn read_study_file(folder: &Path) -> Result<StudyFile, StudyError> {
+    let path = folder.join("study.json");
+    let text = std::fs::read_to_string(&path).map_err(|e| StudyError::Io {
+        path: path.clone(),
+        reason: format!("{e} (not a study folder?)"),
+    })?;
+    serde_json::from_str(&text).map_err(|e| StudyError::Io {
+        path,
+        reason: format!("not a study file: {e}"),
+    })
+}
+
+/// Creates the folder and its `runs/`, and writes `study.json`.
+pub(super) fn write_study_file(out: &Path, file: &StudyFile) -> Result<(), StudyError> {
+    std::fs::create_dir_all(out.join("runs")).map_err(|e| StudyError::Io {
+        path: out.to_path_buf(),
+        reason: e.to_string(),
+    })?;
+    super::write_json(&out.join("study.json"), file)
 }
 
 /// What makes two study files different studies (specs may change between resumes).
@@ -385,10 +383,8 @@ impl Progress {
 
     fn done(&self, record: &RunRecord) {
         let count = self.count.fetch_add(1, Ordering::Relaxed) as u64 + 1;
-        let failures = self.failures.load(Ordering::Relaxed) + usize::from(!record.ok());
-        if !record.ok() {
-            self.failures.fetch_add(1, Ordering::Relaxed);
-        }
+        let failed = usize::from(!record.ok());
+        let failures = self.failures.fetch_add(failed, Ordering::Relaxed) + failed;
         match &self.bar {
             Some(bar) => {
                 bar.set_message(failures.to_string());

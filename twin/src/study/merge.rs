@@ -2,10 +2,9 @@
 //! `report.json` equal a single machine's run of the same study, byte for byte (both are made
 //! from the run records alone, in index order).
 
-use super::execute::{difference, StudyFile};
+use super::execute::{check_folder, difference, read_study_file, write_study_file, StudyFile};
 use super::results::{self, RunRecord};
 use super::StudyError;
-use crate::output::OutputFile;
 use std::path::{Path, PathBuf};
 
 /// What a merge found.
@@ -13,9 +12,6 @@ use std::path::{Path, PathBuf};
 pub struct Merged {
     pub report: serde_json::Value,
     pub runs: usize,
-    /// The merged study's folder, its keys and run values (for the study's plots).
-    pub records: Vec<RunRecord>,
-    pub keys: Vec<String>,
 }
 
 /// Joins the shard folders into `out`: one study, every run present exactly once.
@@ -86,58 +82,28 @@ pub fn merge(folders: &[PathBuf], out: &Path) -> Result<Merged, StudyError> {
     write_merged(out, &whole, records.into_iter().flatten())
 }
 
-fn read_study_file(folder: &Path) -> Result<StudyFile, StudyError> {
-    let path = folder.join("study.json");
-    let text = std::fs::read_to_string(&path).map_err(|e| StudyError::Io {
-        path: path.clone(),
-        reason: format!("{e} (not a study folder?)"),
-    })?;
-    serde_json::from_str(&text).map_err(|e| StudyError::Io {
-        path,
-        reason: format!("not a study file: {e}"),
-    })
-}
-
 /// Copies the records (bytes as they are) and writes the study's files into `out`.
 fn write_merged(
     out: &Path,
     whole: &StudyFile,
     records: impl Iterator<Item = (RunRecord, PathBuf)>,
 ) -> Result<Merged, StudyError> {
-    let io = |path: &Path, reason: String| StudyError::Io {
-        path: path.to_path_buf(),
-        reason,
-    };
-    let study_json = out.join("study.json");
-    if study_json.exists() {
-        let found = read_study_file(out)?;
-        if let Some(reason) = difference(&found, whole) {
-            return Err(StudyError::Mismatch {
-                folder: out.to_path_buf(),
-                reason,
-            });
-        }
-    }
-    std::fs::create_dir_all(out.join("runs")).map_err(|e| io(out, e.to_string()))?;
+    check_folder(out, whole)?;
+    write_study_file(out, whole)?;
     for (record, source) in records {
         let target = RunRecord::file(out, record.index);
         if target != source {
-            let bytes = std::fs::read(&source).map_err(|e| io(&source, e.to_string()))?;
-            OutputFile::create(&target)
-                .and_then(|f| f.commit(&bytes))
-                .map_err(|e| io(&target, e.reason))?;
+            let bytes = std::fs::read(&source).map_err(|e| StudyError::Io {
+                path: source.clone(),
+                reason: e.to_string(),
+            })?;
+            super::write_file(&target, &bytes)?;
         }
     }
-    let text = serde_json::to_string_pretty(whole).map_err(|e| io(&study_json, e.to_string()))?;
-    OutputFile::create(&study_json)
-        .and_then(|f| f.commit((text + "\n").as_bytes()))
-        .map_err(|e| io(&study_json, e.reason))?;
     let (report, records) = results::write_results(out, &whole.keys, whole.runs, &whole.specs)?;
     super::write_plots(out, &whole.keys, &records, &whole.specs, &report)?;
     Ok(Merged {
         report,
         runs: whole.runs,
-        records,
-        keys: whole.keys.clone(),
     })
 }

@@ -19,8 +19,10 @@ pub use execute::{run_study, RecordMode, Shard, StudyOptions, StudyOutcome};
 pub use merge::{merge, Merged};
 pub use results::{report_table, Spec};
 
+use crate::output::OutputFile;
 use crate::scenario::{Scenario, ScenarioBuilder, ScenarioError};
-use axis::{AxisText, GridAxis, RandomAxis, Rng};
+use crate::sensors::Noise;
+use axis::{AxisText, GridAxis, RandomAxis};
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 use thiserror::Error;
@@ -186,7 +188,7 @@ impl Study {
             point /= n;
         }
         // The draws' own stream: the sensor noise uses `seed` itself.
-        let mut rng = Rng::new(seed ^ 0xA5A5_5A5A_C3C3_3C3C);
+        let mut rng = Noise::new(seed ^ 0xA5A5_5A5A_C3C3_3C3C);
         for axis in &self.random {
             parameters.push((axis.key.clone(), toml::Value::Float(axis.draw(&mut rng)?)));
         }
@@ -209,6 +211,25 @@ impl Study {
                 }
             })
     }
+}
+
+/// Writes `bytes` as the whole of `path`, or nothing (see [`OutputFile`]).
+fn write_file(path: &Path, bytes: &[u8]) -> Result<(), StudyError> {
+    OutputFile::create(path)
+        .and_then(|file| file.commit(bytes))
+        .map_err(|e| StudyError::Io {
+            path: path.to_path_buf(),
+            reason: e.reason,
+        })
+}
+
+/// Writes `value` as pretty JSON ending in a newline, whole or not at all.
+fn write_json(path: &Path, value: &impl Serialize) -> Result<(), StudyError> {
+    let text = serde_json::to_string_pretty(value).map_err(|e| StudyError::Io {
+        path: path.to_path_buf(),
+        reason: e.to_string(),
+    })?;
+    write_file(path, (text + "\n").as_bytes())
 }
 
 /// Writes `OUT/study.rrd` from the study's records and report.

@@ -15,16 +15,21 @@ pub fn study_plots(
     specs: &[Spec],
     report: &serde_json::Value,
 ) -> StudyPlots {
-    let mut metrics: Vec<String> = Vec::new();
-    for name in specs.iter().map(|s| s.metric.clone()).chain(
-        records
+    let (candidates, most): (Vec<&String>, usize) = if specs.is_empty() {
+        let names = records
             .iter()
-            .flat_map(|r| r.metrics.iter().map(|(n, _)| n.clone()))
-            .take(DEFAULT_METRICS),
-    ) {
-        if !metrics.contains(&name) && (specs.is_empty() || specs.iter().any(|s| s.metric == name))
-        {
-            metrics.push(name);
+            .flat_map(|r| r.metrics.iter().map(|(n, _)| n));
+        (names.collect(), DEFAULT_METRICS)
+    } else {
+        (specs.iter().map(|s| &s.metric).collect(), specs.len())
+    };
+    let mut metrics: Vec<String> = Vec::new();
+    for name in candidates {
+        if metrics.len() == most {
+            break;
+        }
+        if !metrics.contains(name) {
+            metrics.push(name.clone());
         }
     }
     let value = |r: &RunRecord, name: &str| {

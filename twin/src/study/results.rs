@@ -3,8 +3,7 @@
 //! files alone, in index order — so a merged study's files equal a single machine's, byte for
 //! byte. Wall times live only in the per-run files.
 
-use super::StudyError;
-use crate::output::OutputFile;
+use super::{write_file, write_json, StudyError};
 use serde::{Deserialize, Serialize};
 use serde_json::{json, Map, Value};
 use std::fmt::Write as _;
@@ -57,15 +56,7 @@ impl RunRecord {
 
     /// Writes the record whole or not at all.
     pub fn write(&self, folder: &Path) -> Result<(), StudyError> {
-        let path = Self::file(folder, self.index);
-        let io = |reason: String| StudyError::Io {
-            path: path.clone(),
-            reason,
-        };
-        let text = serde_json::to_string_pretty(self).map_err(|e| io(e.to_string()))?;
-        OutputFile::create(&path)
-            .and_then(|file| file.commit((text + "\n").as_bytes()))
-            .map_err(|e| io(e.reason))
+        write_json(&Self::file(folder, self.index), self)
     }
 
     pub fn read(path: &Path) -> Result<Self, StudyError> {
@@ -365,18 +356,11 @@ pub fn write_results(
 ) -> Result<(Value, Vec<RunRecord>), StudyError> {
     let runs = read_runs(folder)?;
     let report = report(&runs, planned, specs)?;
-    let write = |name: &str, text: String| {
-        let path = folder.join(name);
-        OutputFile::create(&path)
-            .and_then(|file| file.commit(text.as_bytes()))
-            .map_err(|e| StudyError::Io {
-                path,
-                reason: e.reason,
-            })
-    };
-    write("results.csv", results_csv(keys, &runs))?;
-    let text = serde_json::to_string_pretty(&report).unwrap_or_default();
-    write("report.json", text + "\n")?;
+    write_file(
+        &folder.join("results.csv"),
+        results_csv(keys, &runs).as_bytes(),
+    )?;
+    write_json(&folder.join("report.json"), &report)?;
     Ok((report, runs))
 }
 
