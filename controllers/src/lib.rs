@@ -28,6 +28,10 @@ pub mod path_speed_constant;
 pub mod platform_guidance;
 pub mod platform_model;
 pub mod platform_pid;
+pub mod spindle_constant;
+pub mod spindle_optimal_linear;
+pub mod spindle_programme;
+pub mod spindle_speed;
 pub mod stsmc;
 pub mod stsmc_dob;
 pub mod whitworth;
@@ -49,5 +53,8 @@ fn builtin_entries() -> Vec<registry::Entry> {
         stsmc::entry(),
         stsmc_dob::entry(),
         lathe_force::entry(),
+        spindle_constant::entry(),
+        spindle_programme::entry(),
+        spindle_optimal_linear::entry(),
     ]
 }

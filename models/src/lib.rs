@@ -6,6 +6,8 @@ pub mod arm_path;
 pub mod drive;
 pub mod lathe;
 pub mod micromilling;
+pub mod milling;
+pub mod milling_stability;
 pub mod platform_path;
 pub mod reference;
 pub mod serial_chain;

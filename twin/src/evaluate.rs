@@ -14,6 +14,8 @@
 //! | `max`, `min`  | max e, min e                                      | scale·unit of x  |
 //! | `final`       | e at the window's last sample                     | scale·unit of x  |
 //! | `settle_time` | t₁ − from, t₁ the first sample from which \|e\| ≤ `band` to the window's end (NaN if \|e\| > band at the end) | s |
+//! | `spectrum_peak` | largest amplitude of e's one-sided amplitude spectrum within `frequencies = [low, high]` Hz (default: all), see [`crate::spectrum`] | scale·unit of x |
+//! | `spectrum_peak_frequency` | the frequency of that peak | Hz |
 //!
 //! Signals are named as in the run's [`SignalLayout`]: a plant signal by its name is its true
 //! value (`ram_position`, `table.position`, `reference`); `measured/<signal>` is what the
@@ -23,6 +25,7 @@
 //! saturation share). Samples are every physics step in the window.
 
 use crate::run::{Findings, Observer, ObserverError, SignalLayout, StepView};
+use crate::spectrum::Spectrum;
 use serde::{Deserialize, Serialize};
 
 /// One `[[metrics]]` entry of a scenario.
@@ -46,6 +49,8 @@ pub struct MetricSpec {
     pub scale: f64,
     /// `settle_time`: the band |e| must stay within.
     pub band: Option<f64>,
+    /// `spectrum_peak…`: the frequency range searched, Hz.
+    pub frequencies: Option<[f64; 2]>,
     /// The figure's unit, for the reader (documentation only).
     #[serde(default)]
     pub unit: String,
@@ -67,6 +72,14 @@ pub enum MetricKind {
     Min,
     Final,
     SettleTime,
+    SpectrumPeak,
+    SpectrumPeakFrequency,
+}
+
+impl MetricKind {
+    fn is_spectral(self) -> bool {
+        matches!(self, Self::SpectrumPeak | Self::SpectrumPeakFrequency)
+    }
 }
 
 impl MetricSpec {
@@ -81,6 +94,7 @@ impl MetricSpec {
             to: None,
             scale: 1.0,
             band: None,
+            frequencies: None,
             unit: String::new(),
         }
     }
@@ -107,6 +121,16 @@ impl MetricSpec {
                 "scale must be finite and ≠ 0, got {}",
                 self.scale
             )));
+        }
+        if let Some([low, high]) = self.frequencies {
+            if !self.kind.is_spectral() {
+                return Err(at("frequencies is only for the spectrum_peak kinds".into()));
+            }
+            if !(low.is_finite() && high.is_finite() && 0.0 <= low && low < high) {
+                return Err(at(format!(
+                    "frequencies must be [low, high] Hz with 0 ≤ low < high, got [{low}, {high}]"
+                )));
+            }
         }
         match (self.kind, self.band) {
             (MetricKind::SettleTime, Some(band)) if band.is_finite() && band > 0.0 => Ok(()),
@@ -173,13 +197,19 @@ struct Statistics {
     last: f64,
     /// Start of the current stretch within the band, if inside it.
     settled_since: Option<f64>,
+    /// Every value and the first and last times (spectral kinds only).
+    samples: Vec<f64>,
+    first_time: f64,
+    last_time: f64,
 }
 
 impl Statistics {
     fn add(&mut self, time: f64, value: f64, band: Option<f64>) {
         if self.count == 0 {
             (self.max, self.min) = (value, value);
+            self.first_time = time;
         }
+        self.last_time = time;
         self.count += 1;
         self.sum += value;
         self.sum_of_squares += value * value;
@@ -254,6 +284,16 @@ impl Evaluator {
             MetricKind::Min => s.min,
             MetricKind::Final => s.last,
             MetricKind::SettleTime => s.settled_since.map_or(f64::NAN, |t| t - self.spec.from),
+            MetricKind::SpectrumPeak | MetricKind::SpectrumPeakFrequency => {
+                let period = (s.last_time - s.first_time) / (s.count.max(2) - 1) as f64;
+                let band = self.spec.frequencies.unwrap_or([0.0, f64::INFINITY]);
+                let peak = Spectrum::of(&s.samples, period).peak(band);
+                match (self.spec.kind, peak) {
+                    (MetricKind::SpectrumPeak, Some((_, amplitude))) => amplitude,
+                    (_, Some((frequency, _))) => frequency,
+                    (_, None) => f64::NAN,
+                }
+            }
         }
     }
 }
@@ -271,6 +311,9 @@ impl Observer for Evaluator {
         };
         let value = self.spec.scale * judged;
         self.statistics.add(view.time, value, self.spec.band);
+        if self.spec.kind.is_spectral() {
+            self.statistics.samples.push(value);
+        }
         Ok(())
     }
 

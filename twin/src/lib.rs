@@ -17,6 +17,7 @@ pub mod reproduce;
 pub mod run;
 pub mod scenario;
 pub mod sensors;
+pub mod spectrum;
 pub mod study;
 pub mod summary;
 pub mod urdf;

@@ -43,6 +43,20 @@ pub const BUILTIN: &[(&str, &str)] = &[
         "lathe-turning",
         include_str!("../scenarios/lathe-turning.toml"),
     ),
+    (
+        "milling-constant-15000",
+        include_str!("../scenarios/milling-constant-15000.toml"),
+    ),
+    (
+        "milling-constant-16500",
+        include_str!("../scenarios/milling-constant-16500.toml"),
+    ),
+    ("milling-z04", include_str!("../scenarios/milling-z04.toml")),
+    ("milling-z05", include_str!("../scenarios/milling-z05.toml")),
+    (
+        "milling-optimal-linear",
+        include_str!("../scenarios/milling-optimal-linear.toml"),
+    ),
 ];
 
 /// The URDF files shipped with the twin, by the path scenarios name them with.
@@ -60,6 +74,7 @@ const BUILTIN_URDF: &[(&str, &str)] = &[
         "urdf/feed_axis.urdf",
         include_str!("../../urdf/feed_axis.urdf"),
     ),
+    ("urdf/milling.urdf", include_str!("../../urdf/milling.urdf")),
     ("urdf/lathe.urdf", include_str!("../../urdf/lathe.urdf")),
 ];
 
@@ -139,9 +154,21 @@ pub struct Scenario {
     /// `--set` also take them as `urdf.link.<name>.mass=…`.
     #[serde(default)]
     pub plant: PlantValues,
+    /// The state a joint starts in (`[initial.<joint>] position, velocity`; default: at rest at
+    /// the URDF's zero), such as a spindle already at speed when the cut begins.
+    #[serde(default)]
+    pub initial: BTreeMap<String, InitialJoint>,
     /// Injected faults (`[[faults]]`), see [`crate::faults`].
     #[serde(default)]
     pub faults: Vec<FaultSpec>,
+}
+
+/// A joint's state at t = 0, in the joint's own sense (rad or m, rad/s or m/s).
+#[derive(Debug, Clone, Copy, Default, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields, default)]
+pub struct InitialJoint {
+    pub position: f64,
+    pub velocity: f64,
 }
 
 #[derive(Debug, Clone, Deserialize, PartialEq)]
@@ -248,6 +275,14 @@ impl Scenario {
             reference.validate()?;
         }
         self.plant.validate()?;
+        for (joint, state) in &self.initial {
+            if !(state.position.is_finite() && state.velocity.is_finite()) {
+                return Err(format!(
+                    "initial.{joint}: position and velocity must be finite, got {} and {}",
+                    state.position, state.velocity
+                ));
+            }
+        }
         for (i, fault) in self.faults.iter().enumerate() {
             fault.validate(i, self.duration)?;
         }

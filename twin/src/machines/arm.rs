@@ -66,7 +66,7 @@ mod spindle;
 
 use super::{joint, link, process_params, Machine, MachineError};
 use crate::mechanism::Mechanism;
-use crate::physics::{Load, MechanismState, NO_DAMPING};
+use crate::physics::{Load, MechanismState, NO_DAMPING, NO_STIFFNESS};
 use figures::{Figures, Sample};
 use models::arm_milling::{CutLoad, Cutter, CutterParams, MillingMode, Stock};
 use models::arm_path::{Contour, ContourPath, Projection};
@@ -325,12 +325,14 @@ fn couple(link: usize, centre: [f64; 2], torque: f64, loads: &mut Vec<Load>) {
         force: [0.0, f],
         point: [centre[0] + COUPLE_ARM, centre[1]],
         damping: NO_DAMPING,
+        stiffness: NO_STIFFNESS,
     });
     loads.push(Load {
         link,
         force: [0.0, -f],
         point: [centre[0] - COUPLE_ARM, centre[1]],
         damping: NO_DAMPING,
+        stiffness: NO_STIFFNESS,
     });
 }
 
@@ -447,6 +449,7 @@ impl Machine for Arm {
                 force: self.cut_force,
                 point: centre,
                 damping: self.cut_damping,
+                stiffness: NO_STIFFNESS,
             });
             let resisting = -self.spindle.set_speed().signum() * self.cut.torque;
             couple(self.cutter_link, centre, resisting, loads);

@@ -24,7 +24,7 @@
 
 use super::{joint, process_params, Machine, MachineError};
 use crate::mechanism::{JointMotion, Mechanism, Pose2};
-use crate::physics::{Load, MechanismState, NO_DAMPING};
+use crate::physics::{Load, MechanismState, NO_DAMPING, NO_STIFFNESS};
 use models::micromilling::{MicroMillingCut, MicroMillingParams};
 use serde::Deserialize;
 
@@ -212,6 +212,7 @@ impl Machine for FeedAxis {
             force: [ax * self.cutting_force, ay * self.cutting_force],
             point: [table.x, table.y],
             damping: NO_DAMPING,
+            stiffness: NO_STIFFNESS,
         });
     }
 

@@ -18,7 +18,7 @@
 
 use super::{joint, process_params, Machine, MachineError};
 use crate::mechanism::{JointMotion, Mechanism};
-use crate::physics::{Load, MechanismState, NO_DAMPING};
+use crate::physics::{Load, MechanismState, NO_DAMPING, NO_STIFFNESS};
 use models::lathe::{Lathe, LatheParams, TOOLS};
 use serde::Deserialize;
 use std::f64::consts::TAU;
@@ -249,6 +249,7 @@ impl Machine for ParallelLathe {
                 force: [-force * feed[0], -force * feed[1]],
                 point: [slide.x, slide.y],
                 damping: NO_DAMPING,
+                stiffness: NO_STIFFNESS,
             });
             // Tangential at the cut diameter, against the surface speed of the turning part.
             let [ux, uy] = self.tool_directions[i];
@@ -262,6 +263,7 @@ impl Machine for ParallelLathe {
                     self.spindle_centre[1] + radius * uy,
                 ],
                 damping: NO_DAMPING,
+                stiffness: NO_STIFFNESS,
             });
         }
     }

@@ -4,6 +4,7 @@
 mod arm;
 mod feed_axis;
 mod lathe;
+mod milling;
 mod platform;
 mod whitworth;
 
@@ -82,7 +83,14 @@ pub trait Machine {
 }
 
 /// Names of the machines the twin knows.
-pub const MACHINES: &[&str] = &["arm", "whitworth", "feed_axis", "platform", "lathe"];
+pub const MACHINES: &[&str] = &[
+    "arm",
+    "whitworth",
+    "feed_axis",
+    "platform",
+    "lathe",
+    "milling",
+];
 
 /// Builds the machine `name` on `mechanism` with the scenario's `[process]` table.
 pub fn build(
@@ -96,6 +104,7 @@ pub fn build(
         "platform" => Ok(Box::new(platform::Platform::new(mechanism, process)?)),
         "feed_axis" => Ok(Box::new(feed_axis::FeedAxis::new(mechanism, process)?)),
         "lathe" => Ok(Box::new(lathe::ParallelLathe::new(mechanism, process)?)),
+        "milling" => Ok(Box::new(milling::Milling::new(mechanism, process)?)),
         _ => Err(MachineError::Unknown {
             name: name.to_string(),
             known: MACHINES.join(", "),

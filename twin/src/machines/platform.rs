@@ -21,7 +21,7 @@ mod motor;
 
 use super::{link, process_params, Machine, MachineError};
 use crate::mechanism::{wrap_angle, Mechanism, Pose2};
-use crate::physics::{Load, MechanismState, NO_DAMPING};
+use crate::physics::{Load, MechanismState, NO_DAMPING, NO_STIFFNESS};
 use controllers::{Actuator, EffortKind};
 use models::platform_path::{Path, PathSpec};
 use models::tyre::{static_normal_loads, TyreParams};
@@ -391,6 +391,7 @@ impl Machine for Platform {
                 force: [f_long * fx - f_lat * fy, f_long * fy + f_lat * fx],
                 point: contact,
                 damping: NO_DAMPING,
+                stiffness: NO_STIFFNESS,
             });
         }
     }

@@ -6,7 +6,7 @@ mod cutting;
 
 use super::{joint, link, process_params, Machine, MachineError};
 use crate::mechanism::Mechanism;
-use crate::physics::{Load, MechanismState, NO_DAMPING};
+use crate::physics::{Load, MechanismState, NO_DAMPING, NO_STIFFNESS};
 use cutting::{Cutting, Workpiece};
 use models::whitworth::Geometry;
 use serde::Deserialize;
@@ -156,6 +156,7 @@ impl Machine for Whitworth {
                 force: [0.0, self.contact_force],
                 point: [ram.x, ram.y],
                 damping: NO_DAMPING,
+                stiffness: NO_STIFFNESS,
             });
         }
     }

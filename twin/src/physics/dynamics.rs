@@ -223,7 +223,7 @@ impl Model {
 }
 
 /// A process load over a step: a world force at a point fixed on a link, varying with the
-/// point's velocity as `force + damping·(v − start_velocity)`.
+/// point's motion as `force + damping·(v − start_velocity) + stiffness·(p − start_point)`.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub(super) struct HeldLoad {
     pub link: usize,
@@ -232,6 +232,9 @@ pub(super) struct HeldLoad {
     pub local_point: [f64; 2],
     pub damping: [[f64; 2]; 2],
     pub start_velocity: [f64; 2],
+    pub stiffness: [[f64; 2]; 2],
+    /// The point in the world at the step's start.
+    pub start_point: [f64; 2],
 }
 
 /// What acts on the mechanism over a step: generalized joint efforts, process loads, gravity.
@@ -415,10 +418,12 @@ impl Dynamics {
                 velocity_of(kin.point_velocity(load.link, point, v)),
                 load.start_velocity,
             );
+            let dp = sub(point, load.start_point);
             let [[cxx, cxy], [cyx, cyy]] = load.damping;
+            let [[kxx, kxy], [kyx, kyy]] = load.stiffness;
             let force = [
-                load.force[0] + cxx * dv[0] + cxy * dv[1],
-                load.force[1] + cyx * dv[0] + cyy * dv[1],
+                load.force[0] + cxx * dv[0] + cxy * dv[1] + kxx * dp[0] + kxy * dp[1],
+                load.force[1] + cyx * dv[0] + cyy * dv[1] + kyx * dp[0] + kyy * dp[1],
             ];
             let r = sub(point, kin.com[load.link]);
             let torque = r[0] * force[1] - r[1] * force[0];

@@ -56,10 +56,16 @@ pub struct Load {
     /// step the force is `force + damping·(v − v_start)`, so a stiff velocity-dependent process
     /// (a cut is a damper of thousands of N·s/m) is integrated with the motion, not frozen.
     pub damping: [[f64; 2]; 2],
+    /// How the force changes with the point's displacement, ∂F/∂p (N/m, rows x and y): over the
+    /// step the force adds `stiffness·(p − p_start)`, so a cut whose chip follows the tool's
+    /// deflection pushes back within the step, not one step late (a lag that acts as damping).
+    pub stiffness: [[f64; 2]; 2],
 }
 
 /// A load that does not depend on velocity.
 pub const NO_DAMPING: [[f64; 2]; 2] = [[0.0; 2]; 2];
+/// A load that does not depend on where its point is.
+pub const NO_STIFFNESS: [[f64; 2]; 2] = [[0.0; 2]; 2];
 
 /// Solver settings a scenario may tune.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -139,6 +145,22 @@ impl Physics {
         }
     }
 
+    /// Puts tree joints (index, position, velocity; URDF sense) in a starting state, then closes
+    /// the loops and makes the velocities consistent with them.
+    pub fn set_joint_states(&mut self, states: &[(usize, f64, f64)]) {
+        for &(joint, position, velocity) in states {
+            if let Some(g) = self.model.dof_of_joint.get(joint).copied().flatten() {
+                self.q[g] = self.model.sign[g] * position;
+                self.v[g] = self.model.sign[g] * velocity;
+            }
+        }
+        self.close_loops();
+        if self.model.constraint_count > 0 {
+            self.dynamics
+                .project_velocity(&self.model, &self.kin, &mut self.v);
+        }
+    }
+
     /// Applies one step's joint efforts (per tree joint, URDF sign; N·m or N) and loads, then
     /// advances by dt. Efforts and loads act for this step only.
     pub fn step(&mut self, joint_efforts: &[f64], loads: &[Load]) {
@@ -156,6 +178,8 @@ impl Physics {
                 local_point: self.kin.frames[load.link].local(load.point),
                 damping: load.damping,
                 start_velocity: [vx, vy],
+                stiffness: load.stiffness,
+                start_point: load.point,
             }
         }));
         let h = self.settings.dt / self.settings.substeps as f64;

@@ -6,6 +6,7 @@
 mod arm;
 mod feed_axis;
 pub mod lathe;
+mod milling;
 mod platform;
 mod whitworth;
 
@@ -77,6 +78,11 @@ pub const PAPERS: &[Paper] = &[
         name: "platform",
         summary: "Kalinski et al. 2013: two-wheeled platform, optimal control at the energy index vs two PIDs",
         run: platform::run,
+    },
+    Paper {
+        name: "milling",
+        summary: "Kaliński & Galewski 2013 §3: slender ball-end milling chatter reduced by spindle-speed programmes",
+        run: milling::run,
     },
 ];
 

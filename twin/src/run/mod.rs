@@ -18,7 +18,7 @@ use crate::machines::{self, Machine, MachineError};
 use crate::mechanism::{JointMotion, Mechanism};
 use crate::physics::MechanismState;
 use crate::recording::{LiveViewer, RecordingError};
-use crate::scenario::{LoadedScenario, ScenarioError};
+use crate::scenario::{LoadedScenario, Scenario, ScenarioError};
 use crate::sensors::Sensor;
 use crate::urdf::{self, UrdfError};
 use controllers::{Actuator, Controller, ControllerError, EffortKind, PlantInterface, Registry};
@@ -169,6 +169,8 @@ pub struct Twin {
     evaluators: Vec<Evaluator>,
     /// The scenario's `[[faults]]`, bound to the run.
     faults: FaultSet,
+    /// The scenario's `[initial]` joint states: tree joint, position, velocity.
+    initial: Vec<(usize, f64, f64)>,
     /// A viewer to stream the run to, besides the recording file.
     live: Option<LiveViewer>,
     /// Polled every step; see [`Twin::with_stop_flag`].
@@ -203,6 +205,7 @@ impl Twin {
         };
         let mut mechanism = urdf::load_str(&loaded.urdf_text, &loaded.urdf_source)?;
         scenario.plant.apply(&mut mechanism).map_err(binding)?;
+        let initial = initial_states(scenario, &mechanism).map_err(binding)?;
         let mut machine = machines::build(&scenario.machine, &mechanism, &scenario.process)
             .map_err(|source| TwinError::Machine {
                 scenario: loaded.source.clone(),
@@ -253,6 +256,7 @@ impl Twin {
             actuated,
             evaluators,
             faults,
+            initial,
             live: None,
             stop: None,
         })
@@ -458,6 +462,25 @@ fn bind_sensors(
 }
 
 /// An actuator per actuated tree joint: a force on a prismatic joint, else a torque.
+/// The scenario's `[initial]` entries as (tree joint, position, velocity); a name the URDF lacks
+/// or a fixed joint is an error naming the entry.
+fn initial_states(
+    scenario: &Scenario,
+    mechanism: &Mechanism,
+) -> Result<Vec<(usize, f64, f64)>, String> {
+    scenario
+        .initial
+        .iter()
+        .map(|(name, state)| {
+            let joint = mechanism
+                .joint_index(name)
+                .filter(|&j| !matches!(mechanism.joints[j].motion, JointMotion::Fixed))
+                .ok_or_else(|| format!("initial.{name}: the URDF has no moving joint `{name}`"))?;
+            Ok((joint, state.position, state.velocity))
+        })
+        .collect()
+}
+
 fn joint_actuators(mechanism: &Mechanism, actuated: &[usize]) -> Vec<Actuator> {
     actuated
         .iter()

@@ -53,7 +53,7 @@ pub(super) struct Session<'t> {
 impl<'t> Session<'t> {
     pub fn new(twin: &'t mut Twin) -> Self {
         let scenario = &twin.loaded.scenario;
-        let physics = Physics::new(
+        let mut physics = Physics::new(
             &twin.mechanism,
             SolverSettings {
                 dt: scenario.dt,
@@ -61,6 +61,7 @@ impl<'t> Session<'t> {
                 substeps: scenario.substeps,
             },
         );
+        physics.set_joint_states(&twin.initial);
         let layout = &twin.layout;
         let actuators = layout.actuators.len();
         let values = Buffers {

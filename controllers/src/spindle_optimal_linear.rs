@@ -1,0 +1,300 @@
+//! `spindle-optimal-linear`: the spindle-speed change δn of Kaliński & Galewski 2013 (cited as
+//! K(n)), eqs K(17)–K(18), that lowers the energy index K(3), with the optimal-linear fall-back:
+//! once n reaches n_max it falls linearly back to n0, and the optimal law resumes.
+//!
+//! **The law.** A change δn of the speed changes the regenerative delay (τ ∝ 1/n) and so the
+//! delayed part of the cutting force by `B_u·δn`, K(16):
+//! `B_u = Σ_flutes in cut k_d·a_p·(t + μ·n)·(n·u̇(t − τ))·τ/n_s` (N per rad/s; t, n the flute's
+//! tangential and radial directions as in `models::milling`, u̇(t − τ) the tool's velocity when
+//! the flute ahead passed the same angle, n_s the speed). Minimising K(3) over one control period
+//! h, `J = ½·u̇ᵀQ₁Mu̇ + ½·R·δn²` with `Δu̇ = M⁻¹B_u·δn·h`, gives
+//! `δn = −(h·Q₁/R)·B_uᵀu̇` — K(18) with the state-transition integral taken over one period
+//! (Φ ≈ I, the estimate used: the controller cannot measure Φ of the cut it does not model), so
+//! K(18)'s potential-energy term (through T₂) vanishes at this order and the tool's mass M cancels
+//! (K(18) as printed omits the M⁻¹ of K(1)'s input matrix, which cancels the Mᵀ of the kinetic
+//! term). δn is clipped to ±U, K(10). The command n accumulates δn, never below n0.
+//!
+//! **Measured:** the spindle's angle and speed and the tool tip's velocities (`tool_x.velocity`,
+//! `tool_y.velocity`). The cut's parameters are the controller's model of the process.
+
+use crate::registry::{parse_params, Entry};
+use crate::spindle_speed::{SpeedLoop, SpeedLoopParams};
+use crate::{Controller, ControllerError, Measurement, PlantInterface};
+use serde::Deserialize;
+use std::collections::VecDeque;
+use std::f64::consts::{PI, TAU};
+
+const NAME: &str = "spindle-optimal-linear";
+
+/// The controller's model of the cut (SI; defaults as the milling machine's).
+#[derive(Debug, Clone, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields, default)]
+pub struct CutModel {
+    pub flutes: usize,
+    /// k_d·a_p, N/m: specific cutting pressure times axial depth.
+    pub cutting_stiffness: f64,
+    /// μ.
+    pub force_ratio: f64,
+    /// Immersion, rad (clockwise from +y).
+    pub entry_angle: f64,
+    pub exit_angle: f64,
+}
+
+impl Default for CutModel {
+    fn default() -> Self {
+        Self {
+            flutes: 2,
+            cutting_stiffness: 7.0e8 * 1.0e-3,
+            force_ratio: 0.3,
+            entry_angle: 0.0,
+            exit_angle: PI,
+        }
+    }
+}
+
+/// Parameters of `spindle-optimal-linear` (SI units).
+#[derive(Debug, Clone, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields, default)]
+pub struct OptimalLinearParams {
+    /// n0, rad/s: the start and the floor of the command.
+    pub nominal_speed: f64,
+    /// n_max, rad/s: where the linear fall begins.
+    pub maximum_speed: f64,
+    /// Time of the linear fall from n_max to n0, s.
+    pub fall_time: f64,
+    /// Q₁ of K(3), dimensionless.
+    pub kinetic_weight: f64,
+    /// R of K(3), N·m·s³/rad² (makes δn rad/s).
+    pub control_weight: f64,
+    /// U of K(10): largest |δn| per control period, rad/s.
+    pub speed_change_limit: f64,
+    pub cut: CutModel,
+    pub tool_joints: [String; 2],
+    pub speed_loop: SpeedLoopParams,
+}
+
+impl Default for OptimalLinearParams {
+    fn default() -> Self {
+        Self {
+            nominal_speed: 15_000.0 * TAU / 60.0,
+            maximum_speed: 16_500.0 * TAU / 60.0,
+            fall_time: 0.4,
+            kinetic_weight: 1.0,
+            control_weight: 5.0e-5,
+            speed_change_limit: 0.5,
+            cut: CutModel::default(),
+            tool_joints: ["tool_x".into(), "tool_y".into()],
+            speed_loop: SpeedLoopParams::default(),
+        }
+    }
+}
+
+/// The law's gain h·Q₁/R and limits, from [`design`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct OptimalLinearGains {
+    /// rad/s per (W per rad/s) and control period.
+    pub gain_per_second: f64,
+    pub limit: f64,
+}
+
+pub fn design(params: &OptimalLinearParams) -> Result<OptimalLinearGains, ControllerError> {
+    let bad = |reason: String| ControllerError::BadParameters {
+        controller: NAME.into(),
+        reason,
+    };
+    let p = params;
+    let positive = [
+        ("nominal_speed", p.nominal_speed),
+        ("fall_time", p.fall_time),
+        ("kinetic_weight", p.kinetic_weight),
+        ("control_weight", p.control_weight),
+        ("speed_change_limit", p.speed_change_limit),
+        ("cut.cutting_stiffness", p.cut.cutting_stiffness),
+    ];
+    for (name, value) in positive {
+        if !(value.is_finite() && value > 0.0) {
+            return Err(bad(format!("{name} must be finite and > 0, got {value}")));
+        }
+    }
+    if !(p.maximum_speed.is_finite() && p.maximum_speed > p.nominal_speed) {
+        return Err(bad(format!(
+            "maximum_speed must be finite and > nominal_speed, got {}",
+            p.maximum_speed
+        )));
+    }
+    if !(1..=8).contains(&p.cut.flutes) {
+        return Err(bad(format!(
+            "cut.flutes must be 1 to 8, got {}",
+            p.cut.flutes
+        )));
+    }
+    if !(p.cut.force_ratio.is_finite() && p.cut.exit_angle > p.cut.entry_angle) {
+        return Err(bad(
+            "cut.force_ratio must be finite and cut.exit_angle > cut.entry_angle".into(),
+        ));
+    }
+    Ok(OptimalLinearGains {
+        gain_per_second: p.kinetic_weight / p.control_weight,
+        limit: p.speed_change_limit,
+    })
+}
+
+/// ∂F/∂n of K(16): the delayed force's change per rad/s of spindle speed, N·s/rad.
+pub fn speed_sensitivity(
+    cut: &CutModel,
+    angle: f64,
+    speed: f64,
+    delayed_velocity: [f64; 2],
+) -> [f64; 2] {
+    let pitch = TAU / cut.flutes as f64;
+    let tau = pitch / speed;
+    let mut b = [0.0; 2];
+    for j in 0..cut.flutes {
+        let phi = angle + j as f64 * pitch;
+        let from_entry = (phi - cut.entry_angle).rem_euclid(TAU);
+        if from_entry > cut.exit_angle - cut.entry_angle {
+            continue;
+        }
+        let (s, c) = phi.sin_cos();
+        let normal_rate = delayed_velocity[0] * s + delayed_velocity[1] * c;
+        let scale = cut.cutting_stiffness * normal_rate * tau / speed;
+        b[0] += scale * (c + cut.force_ratio * s);
+        b[1] += scale * (-s + cut.force_ratio * c);
+    }
+    b
+}
+
+/// Where the command is in the optimal-linear cycle.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Phase {
+    Optimal,
+    /// Falling linearly since this time.
+    Falling {
+        since: f64,
+    },
+}
+
+pub struct OptimalLinear {
+    params: OptimalLinearParams,
+    gains: OptimalLinearGains,
+    speed_loop: SpeedLoop,
+    tool_signals: [usize; 2],
+    /// (spindle angle, tool velocity) at past updates, one pitch deep.
+    history: VecDeque<(f64, [f64; 2])>,
+    phase: Phase,
+    command: f64,
+    speed_change: f64,
+}
+
+impl OptimalLinear {
+    pub fn new(params: OptimalLinearParams) -> Result<Self, ControllerError> {
+        Ok(Self {
+            gains: design(&params)?,
+            speed_loop: SpeedLoop::new(NAME, &params.speed_loop)?,
+            tool_signals: [0, 0],
+            history: VecDeque::new(),
+            phase: Phase::Optimal,
+            command: params.nominal_speed,
+            speed_change: 0.0,
+            params,
+        })
+    }
+
+    /// The tool's velocity when the spindle was at `angle` (linear between updates).
+    fn velocity_at(&self, angle: f64) -> Option<[f64; 2]> {
+        let after = self.history.partition_point(|(a, _)| *a < angle);
+        if after == 0 || after == self.history.len() {
+            return None;
+        }
+        let ((a0, v0), (a1, v1)) = (self.history[after - 1], self.history[after]);
+        let w = (angle - a0) / (a1 - a0);
+        Some([v0[0] + w * (v1[0] - v0[0]), v0[1] + w * (v1[1] - v0[1])])
+    }
+
+    /// K(18) over one period, clipped by K(10): δn, rad/s.
+    fn optimal_change(&mut self, angle: f64, speed: f64, velocity: [f64; 2], period: f64) -> f64 {
+        let pitch = TAU / self.params.cut.flutes as f64;
+        if self.history.back().is_none_or(|(a, _)| angle > *a) {
+            self.history.push_back((angle, velocity));
+        }
+        while self.history.len() > 2 && self.history[1].0 <= angle - pitch {
+            self.history.pop_front();
+        }
+        let Some(delayed) = self.velocity_at(angle - pitch).filter(|_| speed > 0.0) else {
+            return 0.0;
+        };
+        let b = speed_sensitivity(&self.params.cut, angle, speed, delayed);
+        let power_rate = b[0] * velocity[0] + b[1] * velocity[1];
+        let limit = self.gains.limit;
+        (-period * self.gains.gain_per_second * power_rate).clamp(-limit, limit)
+    }
+}
+
+pub(crate) fn entry() -> Entry {
+    Entry {
+        name: NAME,
+        machine: "milling",
+        summary: "optimal spindle-speed change at the energy index (eq 18) with the linear fall from n_max",
+        build: |table| Ok(Box::new(OptimalLinear::new(parse_params(NAME, table)?)?)),
+    }
+}
+
+impl Controller for OptimalLinear {
+    fn name(&self) -> &str {
+        NAME
+    }
+
+    fn reset(&mut self, plant: &PlantInterface) -> Result<(), ControllerError> {
+        for (slot, joint) in self.tool_signals.iter_mut().zip(&self.params.tool_joints) {
+            *slot = plant.signal(&format!("{joint}.velocity"))?;
+        }
+        self.history.clear();
+        self.phase = Phase::Optimal;
+        self.command = self.params.nominal_speed;
+        self.speed_change = 0.0;
+        self.speed_loop.reset(plant)
+    }
+
+    fn update(&mut self, measurement: &Measurement, period: f64, efforts: &mut [f64]) {
+        let p = &self.params;
+        let (n0, n_max) = (p.nominal_speed, p.maximum_speed);
+        let fall_rate = (n_max - n0) / p.fall_time;
+        let angle = self.speed_loop.angle(measurement);
+        let speed = self.speed_loop.speed(measurement);
+        let velocity = self.tool_signals.map(|s| measurement.get(s));
+        let change = self.optimal_change(angle, speed, velocity, period);
+        let rate = match self.phase {
+            Phase::Optimal => {
+                self.speed_change = change;
+                self.command = (self.command + change).max(n0);
+                if self.command >= n_max {
+                    self.phase = Phase::Falling {
+                        since: measurement.time,
+                    };
+                }
+                change / period
+            }
+            Phase::Falling { since } => {
+                self.speed_change = 0.0;
+                self.command = n_max - fall_rate * (measurement.time - since);
+                if self.command <= n0 {
+                    (self.command, self.phase) = (n0, Phase::Optimal);
+                }
+                -fall_rate
+            }
+        };
+        self.speed_loop
+            .update(measurement, (self.command, rate), period, efforts);
+    }
+
+    fn internal_names(&self) -> Vec<String> {
+        ["speed_command", "speed_change", "speed_error", "torque"]
+            .map(String::from)
+            .to_vec()
+    }
+
+    fn internal_values(&self, values: &mut [f64]) {
+        let l = &self.speed_loop;
+        values.copy_from_slice(&[self.command, self.speed_change, l.speed_error, l.torque]);
+    }
+}

@@ -1,0 +1,185 @@
+//! `spindle-programme`: a repeating triangular spindle-speed programme between the nominal speed
+//! n0 and n_max — Kaliński & Galewski 2013 §3's Z04 (rise and fall 0.4 s) and Z05 (0.5 s), or any
+//! other n0, n_max, rise and fall — followed through the spindle torque.
+
+use crate::registry::{parse_params, Entry};
+use crate::spindle_speed::{SpeedLoop, SpeedLoopParams};
+use crate::{Controller, ControllerError, Measurement, PlantInterface};
+use serde::Deserialize;
+use std::f64::consts::TAU;
+
+const NAME: &str = "spindle-programme";
+
+/// Parameters of `spindle-programme` (SI units).
+#[derive(Debug, Clone, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields, default)]
+pub struct SpindleProgrammeParams {
+    /// n0, rad/s: where each triangle starts and ends.
+    pub nominal_speed: f64,
+    /// n_max, rad/s: the triangle's top.
+    pub maximum_speed: f64,
+    /// Time from n0 to n_max, s.
+    pub rise_time: f64,
+    /// Time from n_max back to n0, s.
+    pub fall_time: f64,
+    pub speed_loop: SpeedLoopParams,
+}
+
+impl Default for SpindleProgrammeParams {
+    /// Z04 between 15,000 and 16,500 rpm.
+    fn default() -> Self {
+        Self {
+            nominal_speed: 15_000.0 * TAU / 60.0,
+            maximum_speed: 16_500.0 * TAU / 60.0,
+            rise_time: 0.4,
+            fall_time: 0.4,
+            speed_loop: SpeedLoopParams::default(),
+        }
+    }
+}
+
+/// The triangle: speed (rad/s) and its rate (rad/s²) at `time`.
+pub fn programme_speed(params: &SpindleProgrammeParams, time: f64) -> (f64, f64) {
+    let (n0, n_max) = (params.nominal_speed, params.maximum_speed);
+    let period = params.rise_time + params.fall_time;
+    let phase = time.rem_euclid(period);
+    if phase < params.rise_time {
+        let rate = (n_max - n0) / params.rise_time;
+        (n0 + rate * phase, rate)
+    } else {
+        let rate = (n0 - n_max) / params.fall_time;
+        (n_max + rate * (phase - params.rise_time), rate)
+    }
+}
+
+pub struct SpindleProgramme {
+    params: SpindleProgrammeParams,
+    speed_loop: SpeedLoop,
+    command: (f64, f64),
+}
+
+impl SpindleProgramme {
+    pub fn new(params: SpindleProgrammeParams) -> Result<Self, ControllerError> {
+        let bad = |reason: String| ControllerError::BadParameters {
+            controller: NAME.into(),
+            reason,
+        };
+        let p = &params;
+        if !(p.nominal_speed.is_finite() && p.nominal_speed > 0.0) {
+            return Err(bad(format!(
+                "nominal_speed must be finite and > 0 rad/s, got {}",
+                p.nominal_speed
+            )));
+        }
+        if !(p.maximum_speed.is_finite() && p.maximum_speed > p.nominal_speed) {
+            return Err(bad(format!(
+                "maximum_speed must be finite and > nominal_speed ({} rad/s), got {}",
+                p.nominal_speed, p.maximum_speed
+            )));
+        }
+        for (name, value) in [("rise_time", p.rise_time), ("fall_time", p.fall_time)] {
+            if !(value.is_finite() && value > 0.0) {
+                return Err(bad(format!("{name} must be finite and > 0 s, got {value}")));
+            }
+        }
+        Ok(Self {
+            speed_loop: SpeedLoop::new(NAME, &params.speed_loop)?,
+            command: (params.nominal_speed, 0.0),
+            params,
+        })
+    }
+}
+
+pub(crate) fn entry() -> Entry {
+    Entry {
+        name: NAME,
+        machine: "milling",
+        summary: "repeating triangular spindle-speed programme n0 → n_max → n0 (Z04, Z05)",
+        build: |table| Ok(Box::new(SpindleProgramme::new(parse_params(NAME, table)?)?)),
+    }
+}
+
+impl Controller for SpindleProgramme {
+    fn name(&self) -> &str {
+        NAME
+    }
+
+    fn reset(&mut self, plant: &PlantInterface) -> Result<(), ControllerError> {
+        self.command = (self.params.nominal_speed, 0.0);
+        self.speed_loop.reset(plant)
+    }
+
+    fn update(&mut self, measurement: &Measurement, period: f64, efforts: &mut [f64]) {
+        self.command = programme_speed(&self.params, measurement.time);
+        self.speed_loop
+            .update(measurement, self.command, period, efforts);
+    }
+
+    fn internal_names(&self) -> Vec<String> {
+        vec![
+            "speed_command".into(),
+            "speed_error".into(),
+            "torque".into(),
+        ]
+    }
+
+    fn internal_values(&self, values: &mut [f64]) {
+        let l = &self.speed_loop;
+        values.copy_from_slice(&[self.command.0, l.speed_error, l.torque]);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_programme_is_a_repeating_triangle() {
+        let p = SpindleProgrammeParams::default();
+        let (n0, n_max) = (p.nominal_speed, p.maximum_speed);
+        for (t, expected) in [
+            (0.0, n0),
+            (0.2, 0.5 * (n0 + n_max)),
+            (0.4, n_max),
+            (0.8, n0),
+            (1.0, 0.5 * (n0 + n_max)),
+        ] {
+            let (speed, _) = programme_speed(&p, t);
+            assert!(
+                (speed - expected).abs() < 1e-9 * n_max,
+                "t = {t}: {speed} vs {expected}"
+            );
+        }
+        assert!(programme_speed(&p, 0.5).1 < 0.0 && programme_speed(&p, 0.1).1 > 0.0);
+    }
+
+    #[test]
+    fn bad_programmes_are_refused_by_name() {
+        for (field, params) in [
+            (
+                "maximum_speed",
+                SpindleProgrammeParams {
+                    maximum_speed: 1000.0,
+                    ..Default::default()
+                },
+            ),
+            (
+                "rise_time",
+                SpindleProgrammeParams {
+                    rise_time: 0.0,
+                    ..Default::default()
+                },
+            ),
+            (
+                "nominal_speed",
+                SpindleProgrammeParams {
+                    nominal_speed: f64::NAN,
+                    ..Default::default()
+                },
+            ),
+        ] {
+            let error = SpindleProgramme::new(params).err().unwrap().to_string();
+            assert!(error.contains(field), "{error}");
+        }
+    }
+}

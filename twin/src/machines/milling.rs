@@ -1,0 +1,220 @@
+//! High-speed milling with a slender ball-end tool, after Kaliński & Galewski 2013, §3 (cited
+//! as K(n)): the tool's first bending mode in the machine's plane (the tip on the prismatic joints
+//! `tool_x` and `tool_y`, springs and dampers from the URDF) under the regenerative cut of
+//! [`models::milling`], eqs K(11)–K(13), and the spindle (revolute `spindle`, driven by torque)
+//! whose instantaneous angle sets which flutes cut and the regenerative delay. The workpiece feeds
+//! at `v_f` along x.
+//!
+//! Each step the cut is evaluated at the step's start from the tool's deflection and the spindle's
+//! angle and speed; its force acts on the tool tip with its stiffness ∂F/∂u (so the chip follows
+//! the tool within the step) and its drag on the spindle as tangential forces at the cutting
+//! edges. Signals the machine adds: `regenerative_delay` (s, the time since the flute ahead passed
+//! the same angle), and the diagnostics `cutting_force_x`, `cutting_force_y` (N),
+//! `spindle_cutting_torque` (N·m), `chip_thickness` (m, the thickest chip) and `flutes_cutting`.
+
+use super::{joint, process_params, Machine, MachineError};
+use crate::mechanism::{JointMotion, Mechanism};
+use crate::physics::{Load, MechanismState, NO_DAMPING, NO_STIFFNESS};
+use models::milling::{CutForces, MillingCut, MillingCutParams, MAX_FLUTES};
+use serde::Deserialize;
+
+const MACHINE: &str = "milling";
+
+/// The `[process]` table of a milling scenario.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+struct ProcessParams {
+    /// The tool is in the cut (false: the spindle and tool run in air).
+    cutting: bool,
+    cut: MillingCutParams,
+}
+
+impl Default for ProcessParams {
+    fn default() -> Self {
+        Self {
+            cutting: true,
+            cut: MillingCutParams::default(),
+        }
+    }
+}
+
+/// The tool's deflection joints and where their axes point in the world.
+#[derive(Debug, Clone, Copy)]
+struct ToolJoints {
+    x: usize,
+    y: usize,
+    axis_x: [f64; 2],
+    axis_y: [f64; 2],
+    tip_link: usize,
+}
+
+pub struct Milling {
+    spindle: usize,
+    spindle_link: usize,
+    tool: ToolJoints,
+    cut: Option<MillingCut>,
+    forces: CutForces,
+    delay: f64,
+}
+
+impl Milling {
+    pub fn new(mechanism: &Mechanism, process: &toml::Table) -> Result<Self, MachineError> {
+        let params: ProcessParams = process_params(MACHINE, process)?;
+        let cut = MillingCut::new(params.cut).map_err(|e| MachineError::BadParameters {
+            machine: MACHINE.into(),
+            reason: format!("cut.{e}"),
+        })?;
+        let spindle = joint(MACHINE, mechanism, "spindle")?;
+        if !matches!(
+            mechanism.joints[spindle].motion,
+            JointMotion::Revolute { .. }
+        ) {
+            return Err(missing("revolute joint", "spindle"));
+        }
+        Ok(Self {
+            spindle,
+            spindle_link: mechanism.joints[spindle].child,
+            tool: tool_joints(mechanism, mechanism.joints[spindle].parent)?,
+            cut: params.cutting.then_some(cut),
+            forces: CutForces::default(),
+            delay: 0.0,
+        })
+    }
+}
+
+/// The tool tip's deflection in the world, m.
+fn deflection(tool: &ToolJoints, state: &MechanismState) -> [f64; 2] {
+    let (qx, qy) = (state.joint_positions[tool.x], state.joint_positions[tool.y]);
+    let [ax, ay] = [tool.axis_x, tool.axis_y];
+    [ax[0] * qx + ay[0] * qy, ax[1] * qx + ay[1] * qy]
+}
+
+fn missing(what: &'static str, name: &str) -> MachineError {
+    MachineError::MissingPart {
+        machine: MACHINE.into(),
+        what,
+        name: name.into(),
+    }
+}
+
+/// `tool_x` on the spindle's fixed parent and `tool_y` on `tool_x`'s child, both prismatic with
+/// unrotated frames: the tip's deflection is then `q_x·axis_x + q_y·axis_y`.
+fn tool_joints(mechanism: &Mechanism, frame: usize) -> Result<ToolJoints, MachineError> {
+    let x = joint(MACHINE, mechanism, "tool_x")?;
+    let y = joint(MACHINE, mechanism, "tool_y")?;
+    let (jx, jy) = (&mechanism.joints[x], &mechanism.joints[y]);
+    let (JointMotion::Prismatic { axis: axis_x }, JointMotion::Prismatic { axis: axis_y }) =
+        (jx.motion, jy.motion)
+    else {
+        return Err(missing("prismatic joints", "tool_x, tool_y"));
+    };
+    if jx.parent != frame || jy.parent != jx.child {
+        return Err(missing(
+            "chain frame → tool_x → tool_y (tool_x on the spindle's parent link)",
+            "tool_x, tool_y",
+        ));
+    }
+    if jx.origin.angle != 0.0 || jy.origin.angle != 0.0 {
+        return Err(missing("unrotated joint frames (rpy 0)", "tool_x, tool_y"));
+    }
+    Ok(ToolJoints {
+        x,
+        y,
+        axis_x,
+        axis_y,
+        tip_link: jy.child,
+    })
+}
+
+impl Machine for Milling {
+    fn signal_names(&self) -> Vec<String> {
+        vec!["regenerative_delay".into()]
+    }
+
+    fn diagnostic_names(&self) -> Vec<String> {
+        [
+            "cutting_force_x",
+            "cutting_force_y",
+            "spindle_cutting_torque",
+            "chip_thickness",
+            "flutes_cutting",
+        ]
+        .map(String::from)
+        .to_vec()
+    }
+
+    fn measure(
+        &mut self,
+        time: f64,
+        state: &MechanismState,
+        signals: &mut [f64],
+        diagnostics: &mut [f64],
+    ) {
+        // The cut at this state, applied over the coming step by `loads`.
+        if let Some(cut) = self.cut.as_mut() {
+            let angle = state.joint_positions[self.spindle];
+            let speed = state.joint_velocities[self.spindle];
+            let deflection = deflection(&self.tool, state);
+            self.forces = cut.advance(time, angle, speed, deflection);
+            self.delay = cut
+                .time_at(angle - cut.params().pitch())
+                .map_or(0.0, |t| time - t);
+        }
+        signals[0] = self.delay;
+        let radius = self.cut.as_ref().map_or(0.0, |c| c.params().tool_radius);
+        diagnostics.copy_from_slice(&[
+            self.forces.force[0],
+            self.forces.force[1],
+            self.forces.spindle_torque(radius),
+            self.forces.chip,
+            self.forces.flutes_cutting as f64,
+        ]);
+    }
+
+    fn set_process_factor(&mut self, factor: f64) -> bool {
+        self.cut.as_mut().map(|c| c.set_factor(factor)).is_some()
+    }
+
+    fn loads(&mut self, _time: f64, state: &MechanismState, loads: &mut Vec<Load>) {
+        let Some(cut) = self.cut.as_ref() else {
+            return;
+        };
+        if self.forces.flutes_cutting == 0 {
+            return;
+        }
+        let angle = state.joint_positions[self.spindle];
+        let pitch = cut.params().pitch();
+        let tip = state.link_poses[self.tool.tip_link];
+        loads.push(Load {
+            link: self.tool.tip_link,
+            force: self.forces.force,
+            point: [tip.x, tip.y],
+            damping: NO_DAMPING,
+            stiffness: self.forces.stiffness,
+        });
+        // The drag on the spindle: each flute's tangential force at its edge, against the
+        // edge's motion (clockwise rotation: the edge at n(φ) moves along (cos φ, −sin φ)).
+        let (centre, radius) = (
+            state.link_poses[self.spindle_link],
+            cut.params().tool_radius,
+        );
+        for j in 0..cut.params().flutes.min(MAX_FLUTES) {
+            let tangential = self.forces.tangential[j];
+            if tangential == 0.0 {
+                continue;
+            }
+            let (s, c) = (angle + j as f64 * pitch).sin_cos();
+            loads.push(Load {
+                link: self.spindle_link,
+                force: [-tangential * c, tangential * s],
+                point: [centre.x + radius * s, centre.y + radius * c],
+                damping: NO_DAMPING,
+                stiffness: NO_STIFFNESS,
+            });
+        }
+    }
+
+    fn metrics(&self) -> Vec<(String, f64)> {
+        Vec::new()
+    }
+}
