@@ -207,7 +207,7 @@ fn main() -> ExitCode {
         Command::Reproduce(args) => reproduce(args, &registry),
         Command::Salvage(args) => salvage(args),
         Command::Sweep(args) => sweep(args, &registry),
-        Command::Analyze(args) => twin::analysis::run(&args)
+        Command::Analyze(args) => twin::analysis::run(&args, &registry)
             .map(|summary| {
                 print!("{summary}");
                 ExitCode::SUCCESS

@@ -1,6 +1,6 @@
 //! The URDF's physical values as scenario values (`[plant]`, or `urdf.…` keys in `set`/`--set`):
 //! a study can sweep or draw a link's mass, inertia and centre of mass and a joint's damping,
-//! friction and effort limit without editing the URDF.
+//! friction, effort limit and spring stiffness without editing the URDF.
 //!
 //! ```toml
 //! [plant.link.ram]
@@ -8,6 +8,8 @@
 //! [plant.joint.crank]
 //! damping = 0.02      # N·m·s/rad (N·s/m on a prismatic joint)
 //! effort_limit = 30.0 # N·m (N)
+//! [plant.joint.tool_x]
+//! stiffness = 1.2e6   # N/m (N·m/rad): a joint's <spring>
 //! ```
 
 use crate::mechanism::Mechanism;
@@ -44,6 +46,8 @@ pub struct JointValues {
     pub friction: Option<f64>,
     /// Largest |effort|, N·m or N; only on a joint the URDF already drives.
     pub effort_limit: Option<f64>,
+    /// Stiffness of the joint's `<spring>`, N/m or N·m/rad; only on a joint that has one.
+    pub stiffness: Option<f64>,
 }
 
 impl PlantValues {
@@ -67,6 +71,7 @@ impl PlantValues {
         for (name, joint) in &self.joint {
             non_negative(format!("plant.joint.{name}.damping"), joint.damping)?;
             non_negative(format!("plant.joint.{name}.friction"), joint.friction)?;
+            non_negative(format!("plant.joint.{name}.stiffness"), joint.stiffness)?;
             positive(
                 format!("plant.joint.{name}.effort_limit"),
                 joint.effort_limit,
@@ -113,6 +118,15 @@ impl PlantValues {
                     ));
                 }
                 joint.effort_limit = Some(limit);
+            }
+            if let Some(stiffness) = values.stiffness {
+                let spring = joint.spring.as_mut().ok_or_else(|| {
+                    format!(
+                        "plant.joint.{name}.stiffness: the URDF joint has no <spring> (give it \
+                         one there first)"
+                    )
+                })?;
+                spring.stiffness = stiffness;
             }
         }
         Ok(())

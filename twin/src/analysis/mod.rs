@@ -3,6 +3,7 @@
 
 pub mod lathe;
 mod lathe_output;
+pub mod milling;
 
 use crate::output::OutputFile;
 use crate::recording::RecordingError;
@@ -31,7 +32,7 @@ pub enum AnalysisError {
 pub const MAX_GRID: usize = 100;
 
 /// Machines `twin analyze` knows.
-pub const ANALYSES: &[&str] = &["lathe"];
+pub const ANALYSES: &[&str] = &["lathe", "milling"];
 
 /// Creates `dir` (and its parents) for an analysis' files.
 pub(crate) fn create_dir(dir: &Path) -> Result<(), AnalysisError> {
@@ -55,8 +56,30 @@ pub(crate) fn write_text(path: &Path, text: &str) -> Result<(), AnalysisError> {
 /// `twin analyze` arguments.
 #[derive(Debug, Clone, clap::Args)]
 pub struct AnalyzeArgs {
-    /// What to analyse: `lathe` (the parallel lathe's power loop, Table 1 of the paper).
+    /// What to analyse: `lathe` (the parallel lathe's power loop, Table 1 of the paper) or
+    /// `milling` (stability lobes of a milling scenario, checked by time-domain runs).
     pub machine: String,
+    /// milling: the scenario (built-in name or .toml file) whose tool and cut are analysed.
+    #[arg(default_value = "milling-constant-15000")]
+    pub scenario: String,
+    /// milling: set a scenario value (as `twin run --set`).
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    pub set: Vec<String>,
+    /// milling: the diagram's speed range, rpm.
+    #[arg(long, num_args = 2, value_names = ["FROM", "TO"], default_values_t = [10_000.0, 25_000.0])]
+    pub rpm: Vec<f64>,
+    /// milling: speeds in the diagram.
+    #[arg(long, default_value_t = 151)]
+    pub speeds: usize,
+    /// milling: largest depth searched, m.
+    #[arg(long, default_value_t = 3.0e-3)]
+    pub max_depth: f64,
+    /// milling: time-domain check grid, speeds and depths (0 0: no check).
+    #[arg(long, num_args = 2, value_names = ["SPEEDS", "DEPTHS"], default_values_t = [12, 8])]
+    pub check: Vec<usize>,
+    /// milling: simulated time of each check run, s.
+    #[arg(long, default_value_t = 0.6)]
+    pub check_duration: f64,
     /// Design time constant m_1 of eq (12), s.
     #[arg(
         long,
@@ -89,13 +112,16 @@ pub struct AnalyzeArgs {
     /// Simulated time per trajectory, s.
     #[arg(long, default_value_t = 20.0, allow_hyphen_values = true)]
     pub duration: f64,
-    /// Folder for the CSV files and phase_plane.rrd.
-    #[arg(long, default_value = "lathe-phase")]
-    pub out_dir: PathBuf,
+    /// Folder for the CSV files and the .rrd plot (default: lathe-phase, milling-lobes).
+    #[arg(long)]
+    pub out_dir: Option<PathBuf>,
 }
 
 /// Runs `twin analyze`: the analysis, its files, and a summary for the terminal.
-pub fn run(args: &AnalyzeArgs) -> Result<String, AnalysisError> {
+pub fn run(args: &AnalyzeArgs, registry: &controllers::Registry) -> Result<String, AnalysisError> {
+    if args.machine == "milling" {
+        return run_milling(args, registry);
+    }
     if args.machine != "lathe" {
         return Err(AnalysisError::Unknown {
             name: args.machine.clone(),
@@ -121,8 +147,76 @@ pub fn run(args: &AnalyzeArgs) -> Result<String, AnalysisError> {
         duration: args.duration,
         ..Default::default()
     })?;
-    let files = plane.write(&args.out_dir)?;
+    let files = plane.write(args.out_dir.as_deref().unwrap_or(Path::new("lathe-phase")))?;
     let mut out = plane.summary();
+    for file in files {
+        out.push_str(&format!("wrote {}\n", file.display()));
+    }
+    Ok(out)
+}
+
+/// `twin analyze milling`: lobes, the time-domain check and their files.
+fn run_milling(
+    args: &AnalyzeArgs,
+    registry: &controllers::Registry,
+) -> Result<String, AnalysisError> {
+    let argument = |flag: &'static str, reason: String| AnalysisError::Argument { flag, reason };
+    let rpm = |v: f64| v * std::f64::consts::TAU / 60.0;
+    let [from, to] = [args.rpm[0], args.rpm[1]];
+    if !(from.is_finite() && to.is_finite() && 0.0 < from && from < to) {
+        return Err(argument(
+            "--rpm",
+            format!("must be FROM TO with 0 < FROM < TO, got {from} {to}"),
+        ));
+    }
+    if !(2..=2000).contains(&args.speeds) {
+        return Err(argument(
+            "--speeds",
+            format!("must be 2 to 2000, got {}", args.speeds),
+        ));
+    }
+    if !(args.max_depth.is_finite() && args.max_depth > 0.0) {
+        return Err(argument(
+            "--max-depth",
+            format!("must be > 0 m, got {}", args.max_depth),
+        ));
+    }
+    if args.check.iter().any(|&n| n > MAX_GRID) {
+        return Err(argument(
+            "--check",
+            format!("at most {MAX_GRID} speeds and depths"),
+        ));
+    }
+    if !(args.check_duration.is_finite() && args.check_duration > 0.0) {
+        return Err(argument(
+            "--check-duration",
+            format!("must be > 0 s, got {}", args.check_duration),
+        ));
+    }
+    let mut scenario = crate::scenario::Scenario::open(&args.scenario)
+        .map_err(|e| argument("scenario", e.to_string()))?;
+    for assignment in &args.set {
+        scenario = scenario
+            .assign(assignment)
+            .map_err(|e| argument("--set", e.to_string()))?;
+    }
+    let analysis = milling::analyze(
+        &milling::LobeRequest {
+            scenario,
+            speeds: [rpm(from), rpm(to)],
+            speed_count: args.speeds,
+            max_depth: args.max_depth,
+            check: [args.check[0], args.check[1]],
+            check_duration: args.check_duration,
+        },
+        registry,
+    )?;
+    let files = analysis.write(
+        args.out_dir
+            .as_deref()
+            .unwrap_or(Path::new("milling-lobes")),
+    )?;
+    let mut out = analysis.summary();
     for file in files {
         out.push_str(&format!("wrote {}\n", file.display()));
     }
