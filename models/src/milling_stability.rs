@@ -788,8 +788,8 @@ mod tests {
                 .unwrap()
                 .modulus
         };
-        let speeds: Vec<f64> = (0..=100)
-            .map(|i| rad_per_s(10_000.0 + 100.0 * i as f64))
+        let speeds: Vec<f64> = (0..=50)
+            .map(|i| rad_per_s(10_000.0 + 200.0 * i as f64))
             .collect();
 
         // Minimum limiting depth within 5 %: reached at the lobe bottom near 15,000 rpm, and
@@ -825,7 +825,7 @@ mod tests {
             );
             compared += 1;
         }
-        assert!(compared >= 60, "only {compared} speeds compared");
+        assert!(compared >= 35, "only {compared} speeds compared");
     }
 
     /// Samples of the simulated vibration per tooth period.
