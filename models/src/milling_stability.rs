@@ -454,16 +454,14 @@ fn averaged_directional(cut: &CutGeometry, intervals: usize) -> Vec<Option<Matri
         .map(|i| {
             let mut sum = Matrix2::zeros();
             let mut cutting = false;
+            // The intervals tile the turn, so none straddles 2π.
             for j in 0..cut.flutes {
-                let start = ((i + j * intervals) as f64 * step).rem_euclid(TAU);
-                // The interval may wrap past 2π: intersect with the engagement of both turns.
-                for turn in [0.0, TAU] {
-                    let from = start.max(cut.entry_angle + turn);
-                    let to = (start + step).min(cut.exit_angle + turn);
-                    if to > from {
-                        sum += directional_integral(from, to, cut.force_ratio);
-                        cutting = true;
-                    }
+                let start = (i + j * intervals) as f64 * step;
+                let from = start.max(cut.entry_angle);
+                let to = (start + step).min(cut.exit_angle);
+                if to > from {
+                    sum += directional_integral(from, to, cut.force_ratio);
+                    cutting = true;
                 }
             }
             cutting.then(|| sum / step)

@@ -253,9 +253,17 @@ fn analyze_command_names_bad_requests() {
         max_force: 5000.0,
         grid: 2,
         duration: 5.0,
-        out_dir: dir.clone(),
+        out_dir: Some(dir.clone()),
+        scenario: "milling-constant-15000".into(),
+        set: Vec::new(),
+        rpm: vec![10_000.0, 25_000.0],
+        speeds: 151,
+        max_depth: 3e-3,
+        check: vec![12, 8],
+        check_duration: 0.6,
     };
-    let summary = analyze_command(&args).unwrap();
+    let registry = controllers::Registry::builtin();
+    let summary = analyze_command(&args, &registry).unwrap();
     assert!(summary.contains("saddle at (2086.5, 470.2) N"), "{summary}");
     assert!(summary.contains("NOT met"), "{summary}");
     for (bad, expected) in [
@@ -289,7 +297,7 @@ fn analyze_command_names_bad_requests() {
             "power gain h_1",
         ),
     ] {
-        let error = analyze_command(&bad).unwrap_err().to_string();
+        let error = analyze_command(&bad, &registry).unwrap_err().to_string();
         assert!(error.contains(expected), "{error}");
     }
 }

@@ -18,7 +18,7 @@ impl Spectrum {
     /// The spectrum of `samples` taken every `sample_period` s (empty for fewer than 2 samples).
     pub fn of(samples: &[f64], sample_period: f64) -> Self {
         let n = samples.len();
-        if n < 2 || !(sample_period > 0.0) {
+        if n < 2 || sample_period.is_nan() || sample_period <= 0.0 {
             return Self {
                 bin_width: 0.0,
                 amplitudes: Vec::new(),
