@@ -20,37 +20,12 @@
 use crate::registry::{parse_params, Entry};
 use crate::spindle_speed::{SpeedLoop, SpeedLoopParams};
 use crate::{Controller, ControllerError, Measurement, PlantInterface};
+use models::milling::{force_direction, MillingCutParams};
 use serde::Deserialize;
 use std::collections::VecDeque;
-use std::f64::consts::{PI, TAU};
+use std::f64::consts::TAU;
 
 const NAME: &str = "spindle-optimal-linear";
-
-/// The controller's model of the cut (SI; defaults as the milling machine's).
-#[derive(Debug, Clone, Deserialize, PartialEq)]
-#[serde(deny_unknown_fields, default)]
-pub struct CutModel {
-    pub flutes: usize,
-    /// k_d·a_p, N/m: specific cutting pressure times axial depth.
-    pub cutting_stiffness: f64,
-    /// μ.
-    pub force_ratio: f64,
-    /// Immersion, rad (clockwise from +y).
-    pub entry_angle: f64,
-    pub exit_angle: f64,
-}
-
-impl Default for CutModel {
-    fn default() -> Self {
-        Self {
-            flutes: 2,
-            cutting_stiffness: 7.0e8 * 1.0e-3,
-            force_ratio: 0.3,
-            entry_angle: 0.0,
-            exit_angle: PI,
-        }
-    }
-}
 
 /// Parameters of `spindle-optimal-linear` (SI units).
 #[derive(Debug, Clone, Deserialize, PartialEq)]
@@ -68,7 +43,8 @@ pub struct OptimalLinearParams {
     pub control_weight: f64,
     /// U of K(10): largest |δn| per control period, rad/s.
     pub speed_change_limit: f64,
-    pub cut: CutModel,
+    /// The controller's model of the cut (the keys of the machine's `[process.cut]`).
+    pub cut: MillingCutParams,
     pub tool_joints: [String; 2],
     pub speed_loop: SpeedLoopParams,
 }
@@ -82,17 +58,17 @@ impl Default for OptimalLinearParams {
             kinetic_weight: 1.0,
             control_weight: 5.0e-5,
             speed_change_limit: 0.5,
-            cut: CutModel::default(),
+            cut: MillingCutParams::default(),
             tool_joints: ["tool_x".into(), "tool_y".into()],
             speed_loop: SpeedLoopParams::default(),
         }
     }
 }
 
-/// The law's gain h·Q₁/R and limits, from [`design`].
+/// The law's gain and limit, from [`design`]: δn = −h·(Q₁/R)·B_uᵀu̇, clipped to ±U.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct OptimalLinearGains {
-    /// rad/s per (W per rad/s) and control period.
+    /// Q₁/R, rad²/(N·m·s³).
     pub gain_per_second: f64,
     pub limit: f64,
 }
@@ -109,7 +85,6 @@ pub fn design(params: &OptimalLinearParams) -> Result<OptimalLinearGains, Contro
         ("kinetic_weight", p.kinetic_weight),
         ("control_weight", p.control_weight),
         ("speed_change_limit", p.speed_change_limit),
-        ("cut.cutting_stiffness", p.cut.cutting_stiffness),
     ];
     for (name, value) in positive {
         if !(value.is_finite() && value > 0.0) {
@@ -141,25 +116,24 @@ pub fn design(params: &OptimalLinearParams) -> Result<OptimalLinearGains, Contro
 
 /// ∂F/∂n of K(16): the delayed force's change per rad/s of spindle speed, N·s/rad.
 pub fn speed_sensitivity(
-    cut: &CutModel,
+    cut: &MillingCutParams,
     angle: f64,
     speed: f64,
     delayed_velocity: [f64; 2],
 ) -> [f64; 2] {
-    let pitch = TAU / cut.flutes as f64;
-    let tau = pitch / speed;
+    let tau = cut.pitch() / speed;
     let mut b = [0.0; 2];
     for j in 0..cut.flutes {
-        let phi = angle + j as f64 * pitch;
-        let from_entry = (phi - cut.entry_angle).rem_euclid(TAU);
-        if from_entry > cut.exit_angle - cut.entry_angle {
+        let phi = angle + j as f64 * cut.pitch();
+        if !cut.engaged(phi) {
             continue;
         }
         let (s, c) = phi.sin_cos();
         let normal_rate = delayed_velocity[0] * s + delayed_velocity[1] * c;
-        let scale = cut.cutting_stiffness * normal_rate * tau / speed;
-        b[0] += scale * (c + cut.force_ratio * s);
-        b[1] += scale * (-s + cut.force_ratio * c);
+        let scale = cut.cutting_pressure * cut.axial_depth * normal_rate * tau / speed;
+        for (b, d) in b.iter_mut().zip(force_direction(phi, cut.force_ratio)) {
+            *b += scale * d;
+        }
     }
     b
 }
@@ -213,7 +187,7 @@ impl OptimalLinear {
 
     /// K(18) over one period, clipped by K(10): δn, rad/s.
     fn optimal_change(&mut self, angle: f64, speed: f64, velocity: [f64; 2], period: f64) -> f64 {
-        let pitch = TAU / self.params.cut.flutes as f64;
+        let pitch = self.params.cut.pitch();
         if self.history.back().is_none_or(|(a, _)| angle > *a) {
             self.history.push_back((angle, velocity));
         }

@@ -127,10 +127,23 @@ impl MillingCutParams {
         TAU / self.flutes as f64
     }
 
+    /// Whether a flute at angle `phi` (rad) is inside the immersion.
+    pub fn engaged(&self, phi: f64) -> bool {
+        let from_entry = (phi - self.entry_angle).rem_euclid(TAU);
+        from_entry <= self.exit_angle - self.entry_angle
+    }
+
     /// Feed per tooth at spindle speed `speed` (rad/s), m.
     pub fn feed_per_tooth(&self, speed: f64) -> f64 {
         self.feed_speed * self.pitch() / speed
     }
+}
+
+/// Direction of `t + μ·n` at flute angle `phi`: the force on the tool is `−F_t` times it, and a
+/// chip change δh changes it by `−k_d·a_p·δh` times it.
+pub fn force_direction(phi: f64, force_ratio: f64) -> [f64; 2] {
+    let (s, c) = phi.sin_cos();
+    [c + force_ratio * s, -s + force_ratio * c]
 }
 
 /// The cut at one instant.
@@ -220,18 +233,17 @@ impl MillingCut {
             // The flute ahead of j (j + 1) passed this angle one pitch ago.
             let material = previous[(j + 1) % p.flutes];
             let chip = edge - material;
-            let engaged = self.in_immersion(phi);
+            let engaged = p.engaged(phi);
             *left = if engaged { edge.max(material) } else { edge };
             if !(turning && engaged && chip > 0.0) {
                 continue;
             }
             let tangential = gain * chip;
             cut.tangential[j] = tangential;
-            cut.force[0] += -tangential * c - p.force_ratio * tangential * s;
-            cut.force[1] += tangential * s - p.force_ratio * tangential * c;
-            // ∂F/∂u = −k_d·a_p·(t + μ·n)·nᵀ.
-            let direction = [c + p.force_ratio * s, -s + p.force_ratio * c];
-            for (row, d) in cut.stiffness.iter_mut().zip(direction) {
+            // F = −F_t·(t + μ·n); ∂F/∂u = −k_d·a_p·(t + μ·n)·nᵀ.
+            let direction = force_direction(phi, p.force_ratio);
+            for ((force, row), d) in cut.force.iter_mut().zip(&mut cut.stiffness).zip(direction) {
+                *force -= tangential * d;
                 row[0] -= gain * d * s;
                 row[1] -= gain * d * c;
             }
@@ -242,13 +254,6 @@ impl MillingCut {
             self.remember(time, angle, surface);
         }
         cut
-    }
-
-    /// Whether a flute at `phi` is inside the immersion.
-    fn in_immersion(&self, phi: f64) -> bool {
-        let p = &self.params;
-        let from_entry = (phi - p.entry_angle).rem_euclid(TAU);
-        from_entry <= p.exit_angle - p.entry_angle
     }
 
     /// The history as if the spindle had cut steadily, undeflected, at `speed` for one pitch

@@ -79,7 +79,7 @@ pub struct LobeAnalysis {
 }
 
 /// The tool's modes and the cut from the scenario.
-pub fn inputs(
+fn inputs(
     mechanism: &Mechanism,
     process: &toml::Table,
 ) -> Result<(ToolModes, CutGeometry, f64), AnalysisError> {
@@ -490,27 +490,42 @@ impl LobeAnalysis {
                 .map(|c| [x(c.speed), y(c.depth)])
                 .collect()
         };
-        let ticks: Vec<[f64; 2]> = (0..=4)
-            .map(|k| [x0, y(depth_top * k as f64 / 4.0)])
-            .collect();
-        let tick_labels = (0..=4)
-            .map(|k| format!("{:.3} mm", depth_top * 1e3 * k as f64 / 4.0))
-            .collect();
-        let speed_ticks: Vec<[f64; 2]> = (0..=4)
-            .map(|k| [x0 + (x1 - x0) * k as f64 / 4.0, 0.0])
-            .collect();
-        let speed_labels = speed_ticks
-            .iter()
-            .map(|p| format!("{:.0} rpm", p[0] * 1000.0))
-            .collect();
         let [speed, depth] = self.operating_point;
-        let layer = |name: &str, color, size, geometry, labels| PlotLayer {
-            name: name.into(),
-            color,
-            size,
-            geometry,
-            labels,
-        };
+        let mut layers = vec![
+            layer(
+                "lobes",
+                [40, 90, 200],
+                2.0,
+                PlotGeometry::Lines(curves),
+                Vec::new(),
+            ),
+            layer(
+                "runs/stable",
+                [40, 170, 70],
+                5.0,
+                PlotGeometry::Points(points(false)),
+                Vec::new(),
+            ),
+            layer(
+                "runs/chatter",
+                [220, 50, 40],
+                5.0,
+                PlotGeometry::Points(points(true)),
+                Vec::new(),
+            ),
+            layer(
+                "operating_point",
+                [240, 170, 20],
+                9.0,
+                PlotGeometry::Points(vec![[x(speed), y(depth)]]),
+                vec![format!(
+                    "scenario: {:.0} rpm, {:.3} mm",
+                    speed * RPM,
+                    depth * 1e3
+                )],
+            ),
+        ];
+        layers.extend(axes([x0, x1], depth_top, y_per_mm));
         Plot2D {
             title: "twin analyze milling: stability lobes".into(),
             notes: format!(
@@ -520,27 +535,64 @@ impl LobeAnalysis {
                  Star: the scenario's operating point.\n\n{}",
                 self.summary()
             ),
-            layers: vec![
-                layer("lobes", [40, 90, 200], 2.0, PlotGeometry::Lines(curves), Vec::new()),
-                layer("runs/stable", [40, 170, 70], 5.0, PlotGeometry::Points(points(false)), Vec::new()),
-                layer("runs/chatter", [220, 50, 40], 5.0, PlotGeometry::Points(points(true)), Vec::new()),
-                layer(
-                    "operating_point",
-                    [240, 170, 20],
-                    9.0,
-                    PlotGeometry::Points(vec![[x(speed), y(depth)]]),
-                    vec![format!("scenario: {:.0} rpm, {:.3} mm", speed * RPM, depth * 1e3)],
-                ),
-                layer(
-                    "axes",
-                    [120, 120, 120],
-                    1.0,
-                    PlotGeometry::Lines(vec![vec![[x0, 0.0], [x1, 0.0]], vec![[x0, 0.0], [x0, y(depth_top)]]]),
-                    Vec::new(),
-                ),
-                layer("axes/depth_ticks", [120, 120, 120], 3.0, PlotGeometry::Points(ticks), tick_labels),
-                layer("axes/speed_ticks", [120, 120, 120], 3.0, PlotGeometry::Points(speed_ticks), speed_labels),
-            ],
+            layers,
         }
     }
+}
+
+fn layer(
+    name: &str,
+    color: [u8; 3],
+    size: f32,
+    geometry: PlotGeometry,
+    labels: Vec<String>,
+) -> PlotLayer {
+    PlotLayer {
+        name: name.into(),
+        color,
+        size,
+        geometry,
+        labels,
+    }
+}
+
+/// The diagram's axes with ticks: speed (x in 1,000 rpm from `x0` to `x1`) and depth (up to
+/// `depth_top` m, `y_per_mm` plot units per mm).
+fn axes([x0, x1]: [f64; 2], depth_top: f64, y_per_mm: f64) -> [PlotLayer; 3] {
+    let grey = [120, 120, 120];
+    let y = |depth: f64| depth * 1e3 * y_per_mm;
+    let depths: Vec<f64> = (0..=4).map(|k| depth_top * k as f64 / 4.0).collect();
+    let speeds: Vec<f64> = (0..=4).map(|k| x0 + (x1 - x0) * k as f64 / 4.0).collect();
+    [
+        layer(
+            "axes",
+            grey,
+            1.0,
+            PlotGeometry::Lines(vec![
+                vec![[x0, 0.0], [x1, 0.0]],
+                vec![[x0, 0.0], [x0, y(depth_top)]],
+            ]),
+            Vec::new(),
+        ),
+        layer(
+            "axes/depth_ticks",
+            grey,
+            3.0,
+            PlotGeometry::Points(depths.iter().map(|&d| [x0, y(d)]).collect()),
+            depths
+                .iter()
+                .map(|d| format!("{:.3} mm", d * 1e3))
+                .collect(),
+        ),
+        layer(
+            "axes/speed_ticks",
+            grey,
+            3.0,
+            PlotGeometry::Points(speeds.iter().map(|&x| [x, 0.0]).collect()),
+            speeds
+                .iter()
+                .map(|x| format!("{:.0} rpm", x * 1000.0))
+                .collect(),
+        ),
+    ]
 }

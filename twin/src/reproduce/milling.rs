@@ -34,9 +34,8 @@ const PAPER_CHATTER: f64 = 808.0;
 const TOOTH_PASSING: f64 = 500.0;
 
 pub fn run(out_dir: &Path, registry: &Registry) -> Result<Report, ReproduceError> {
-    let mut runs = Vec::new();
     let mut records = Vec::new();
-    for name in SCENARIOS {
+    let mut run = |name: &str| -> Result<RunSummary, ReproduceError> {
         let loaded = Scenario::builtin(name)
             .and_then(ScenarioBuilder::build)
             .map_err(TwinError::from)?;
@@ -45,11 +44,15 @@ pub fn run(out_dir: &Path, registry: &Registry) -> Result<Report, ReproduceError
         let mut record = summary::to_json(&result);
         record["recording"] = file.into();
         records.push(record);
-        runs.push(result);
-    }
-    let [constant, constant_high, z04, z05, optimal] = &runs[..] else {
-        unreachable!("five scenarios ran")
+        Ok(result)
     };
+    let [constant, constant_high, z04, z05, optimal] = [
+        &run(SCENARIOS[0])?,
+        &run(SCENARIOS[1])?,
+        &run(SCENARIOS[2])?,
+        &run(SCENARIOS[3])?,
+        &run(SCENARIOS[4])?,
+    ];
     let claims = vec![
         chatter_at_15000(constant),
         peak_reduction("Z04", z04, constant),
@@ -72,6 +75,13 @@ fn metric(run: &RunSummary, name: &str) -> f64 {
 /// Relative reduction of `name` from `base` to `run`, %.
 fn reduction(run: &RunSummary, base: &RunSummary, name: &str) -> f64 {
     100.0 * (1.0 - metric(run, name) / metric(base, name))
+}
+
+/// A reduction shown as the signed change it is: 56 → "−56 %", −2 → "+2 %".
+fn change(reduction: f64) -> String {
+    let change = -reduction;
+    let sign = if change < 0.0 { "−" } else { "+" };
+    format!("{sign}{:.0} %", change.abs())
 }
 
 /// Peak amplitude (µm) and frequency (Hz), for display.
@@ -97,8 +107,10 @@ fn chatter_at_15000(run: &RunSummary) -> Claim {
         claim: "Fig. 2a: strong chatter at constant 15,000 rpm".into(),
         paper: "chatter at 808 Hz".into(),
         twin: format!(
-            "peak {} ({error:+.1} % vs 808 Hz), RMS {:.1} µm",
+            "peak {} ({}{:.1} % vs 808 Hz), RMS {:.1} µm",
             peak(run),
+            if error < 0.0 { "−" } else { "+" },
+            error.abs(),
             metric(run, "displacement_rms") * 1e6
         ),
         verdict,
@@ -117,7 +129,7 @@ fn peak_reduction(programme: &str, run: &RunSummary, constant: &RunSummary) -> C
     Claim {
         claim: format!("Fig. 2b: {programme} lowers the spectrum's maximum"),
         paper: "up to −68 % vs 15,000 rpm".into(),
-        twin: format!("{cut:+.0} % → {}", peak(run)).replace("+", "−"),
+        twin: format!("{} → {}", change(cut), peak(run)),
         verdict,
     }
 }
@@ -127,7 +139,7 @@ fn rms_reduction(z04: &RunSummary, z05: &RunSummary, constant: &RunSummary) -> C
     Claim {
         claim: "Fig. 3a: the programmes lower the RMS displacement".into(),
         paper: "RMS reduced".into(),
-        twin: format!("Z04 −{:.0} %, Z05 −{:.0} %", cuts[0], cuts[1]),
+        twin: format!("Z04 {}, Z05 {}", change(cuts[0]), change(cuts[1])),
         verdict: if cuts.iter().all(|&c| c > 0.0) {
             Verdict::Reproduced
         } else {
@@ -150,7 +162,9 @@ fn optimal_linear(run: &RunSummary, constant: &RunSummary) -> Claim {
         claim: "§3: the optimal-linear programme reduces chatter".into(),
         paper: "RMS and chatter amplitude reduced".into(),
         twin: format!(
-            "peak {peak_cut:+.0} %, RMS {rms_cut:+.0} %; speed {:.0}–{:.0} rpm",
+            "peak {}, RMS {}; speed {:.0}–{:.0} rpm",
+            change(peak_cut),
+            change(rms_cut),
             metric(run, "spindle_speed_min"),
             metric(run, "spindle_speed_max")
         ),
@@ -170,9 +184,9 @@ fn reference_16500(
         claim: "constant 16,500 rpm (reference run)".into(),
         paper: "reference data beside the programmes".into(),
         twin: format!(
-            "peak {} ({:+.0} % vs 15,000 rpm); programmes {}",
+            "peak {} ({} vs 15,000 rpm); programmes {}",
             peak(high),
-            -reduction(high, constant, "spectrum_peak"),
+            change(reduction(high, constant, "spectrum_peak")),
             if below {
                 "below it"
             } else {
