@@ -20,12 +20,28 @@
 //! the arm holds the last point.
 
 use crate::event::Event;
-use crate::{ControllerError, Measurement, PlantInterface};
+use crate::{ControllerError, Measurement, PlantInterface, SignalSpec, Unit};
 use models::arm_path::{ArmGeometry, Contour, ContourPath, Elbow, JointPath, PathCursor};
 use serde::Deserialize;
 
 /// The arm's joints, in the order of every per-joint array.
 pub const JOINTS: [&str; 3] = ["shoulder", "elbow", "wrist"];
+
+/// The servo's recorded internals, in the order of [`ArmServo::errors`] then
+/// [`ArmServo::commands`]: joint errors, and the current commands before the twin's clip.
+pub fn internals() -> Vec<SignalSpec> {
+    let errors = JOINTS
+        .iter()
+        .map(|j| SignalSpec::new(format!("{j}_error"), Unit::Degree, "joint errors"));
+    let commands = JOINTS.iter().map(|j| {
+        SignalSpec::new(
+            format!("{j}_current_command"),
+            Unit::Ampere,
+            "current commands",
+        )
+    });
+    errors.chain(commands).collect()
+}
 
 /// `[controller.params.servo]`: the robot program and the joint servos (SI units).
 #[derive(Debug, Clone, Deserialize, PartialEq)]

@@ -1,6 +1,7 @@
 //! The controller interface: measurement in, joint efforts out.
 
 use crate::event::Event;
+use crate::signal::SignalSpec;
 use thiserror::Error;
 
 /// What an actuated joint takes as effort.
@@ -107,12 +108,14 @@ pub trait Controller: Send {
     /// `efforts`, which arrives zeroed.
     fn update(&mut self, measurement: &Measurement, period: f64, efforts: &mut [f64]);
 
-    /// Names of the internal signals recorded with the run (fixed after `reset`).
-    fn internal_names(&self) -> Vec<String> {
+    /// The internal signals recorded with the run, with their units and plots (fixed after
+    /// `reset`). A signal on the plot of a plant signal is drawn with it (a command with what it
+    /// commands).
+    fn internals(&self) -> Vec<SignalSpec> {
         Vec::new()
     }
 
-    /// The internal signals after the last update, in the order of `internal_names`.
+    /// The internal signals after the last update, in the order of `internals`.
     fn internal_values(&self, _values: &mut [f64]) {}
 
     /// Moves the events raised since the last call (mode switches, saturation) into `events`.

@@ -8,7 +8,7 @@
 //! disturbances to it.
 
 use crate::registry::{parse_params, Entry};
-use crate::{Controller, ControllerError, Measurement, PlantInterface};
+use crate::{Controller, ControllerError, Measurement, PlantInterface, SignalSpec, Unit};
 use serde::Deserialize;
 
 /// Parameters of `crank-pi` (SI units).
@@ -144,8 +144,12 @@ impl Controller for CrankPi {
         efforts[self.actuator] = self.torque;
     }
 
-    fn internal_names(&self) -> Vec<String> {
-        vec!["speed_error".into(), "integral".into(), "torque".into()]
+    fn internals(&self) -> Vec<SignalSpec> {
+        vec![
+            SignalSpec::new("speed_error", Unit::Rpm, "crank speed error"),
+            SignalSpec::new("integral", Unit::Degree, "crank angle error integral"),
+            SignalSpec::new("torque", Unit::NewtonMetre, "crank torque"),
+        ]
     }
 
     fn internal_values(&self, values: &mut [f64]) {

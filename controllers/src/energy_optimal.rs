@@ -21,7 +21,7 @@ use crate::event::{Event, EventKind};
 use crate::platform_guidance::{wheel_actuators, Guide};
 use crate::platform_model::PlatformModel;
 use crate::registry::{parse_params, Entry};
-use crate::{Controller, ControllerError, Measurement, PlantInterface};
+use crate::{Controller, ControllerError, Measurement, PlantInterface, SignalSpec, Unit};
 use nalgebra::{Matrix2, Matrix4};
 use serde::Deserialize;
 
@@ -227,19 +227,16 @@ impl Controller for EnergyOptimal {
         efforts[self.actuators[1]] = self.torque[1];
     }
 
-    fn internal_names(&self) -> Vec<String> {
-        let mut names: Vec<String> = Guide::names().map(String::from).to_vec();
-        names.extend(
-            [
-                "wheel_rate_error.left",
-                "wheel_rate_error.right",
-                "torque.left",
-                "torque.right",
-                "performance_index",
-            ]
-            .map(String::from),
-        );
-        names
+    fn internals(&self) -> Vec<SignalSpec> {
+        let mut specs = Guide::internals();
+        specs.extend([
+            SignalSpec::new("wheel_rate_error.left", Unit::Rpm, "wheel rate errors"),
+            SignalSpec::new("wheel_rate_error.right", Unit::Rpm, "wheel rate errors"),
+            SignalSpec::new("torque.left", Unit::NewtonMetre, "wheel torque commands"),
+            SignalSpec::new("torque.right", Unit::NewtonMetre, "wheel torque commands"),
+            SignalSpec::new("performance_index", Unit::Joule, "performance index"),
+        ]);
+        specs
     }
 
     fn internal_values(&self, values: &mut [f64]) {

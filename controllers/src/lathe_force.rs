@@ -22,7 +22,7 @@
 use crate::event::{Event, EventKind};
 use crate::output_feedback_design::{self, Consistency, DesignSpec, GlobalStabilityCheck};
 use crate::registry::{parse_params, Entry};
-use crate::{Controller, ControllerError, Measurement, PlantInterface};
+use crate::{Controller, ControllerError, Measurement, PlantInterface, SignalSpec, Unit};
 use models::lathe::{Lathe, LatheParams, TOOLS};
 use serde::Deserialize;
 use std::f64::consts::TAU;
@@ -458,18 +458,17 @@ impl Controller for LatheForce {
         }
     }
 
-    fn internal_names(&self) -> Vec<String> {
-        [
-            "phase",
-            "power_error",
-            "commanded_feed_1",
-            "commanded_feed_2",
-            "slide_speed_command_1",
-            "slide_speed_command_2",
-            "spindle_speed_error",
+    fn internals(&self) -> Vec<SignalSpec> {
+        vec![
+            SignalSpec::new("phase", Unit::Dimensionless, "phase"),
+            SignalSpec::new("power_limit", Unit::Kilowatt, "spindle power"),
+            SignalSpec::new("power_error", Unit::Kilowatt, "power error"),
+            SignalSpec::new("commanded_feed_1", Unit::MillimetrePerRev, "tool 1 feed"),
+            SignalSpec::new("commanded_feed_2", Unit::MillimetrePerRev, "tool 2 feed"),
+            SignalSpec::new("slide_speed_command_1", Unit::MillimetrePerSecond, "slide speed commands"),
+            SignalSpec::new("slide_speed_command_2", Unit::MillimetrePerSecond, "slide speed commands"),
+            SignalSpec::new("spindle_speed_error", Unit::Rpm, "spindle speed error"),
         ]
-        .map(String::from)
-        .to_vec()
     }
 
     fn internal_values(&self, values: &mut [f64]) {
@@ -480,6 +479,7 @@ impl Controller for LatheForce {
         };
         values.copy_from_slice(&[
             phase,
+            self.design.lathe.params().max_spindle_power,
             self.power_error,
             self.commanded_feeds[0],
             self.commanded_feeds[1],

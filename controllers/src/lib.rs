@@ -8,12 +8,14 @@ pub mod controller;
 pub mod design;
 pub mod event;
 pub mod registry;
+pub mod signal;
 
 pub use controller::{
     Actuator, Controller, ControllerError, EffortKind, Measurement, PlantInterface,
 };
 pub use event::{Event, EventKind, EventLevel};
 pub use registry::{parse_params, Registry};
+pub use signal::{SignalSpec, Unit};
 
 pub mod arm_servo;
 pub mod crank_pi;

@@ -26,7 +26,7 @@
 
 use crate::filters::FirstOrderFilter;
 use crate::registry::{parse_params, Entry};
-use crate::{Controller, ControllerError, EffortKind, Measurement, PlantInterface};
+use crate::{Controller, ControllerError, EffortKind, Measurement, PlantInterface, SignalSpec, Unit};
 use serde::Deserialize;
 
 /// Measured reference signals the feed-axis controllers read, as the scenario names them.
@@ -286,17 +286,15 @@ impl Controller for PPi {
         efforts[axis.actuator()] = self.force_command;
     }
 
-    fn internal_names(&self) -> Vec<String> {
-        [
-            "position_error",
-            "velocity_estimate",
-            "beta",
-            "disturbance_compensation",
-            "damping_compensation",
-            "force_command",
+    fn internals(&self) -> Vec<SignalSpec> {
+        vec![
+            SignalSpec::new("position_error", Unit::Micrometre, "table position error"),
+            SignalSpec::new("velocity_estimate", Unit::MicrometrePerSecond, "table velocity"),
+            SignalSpec::new("beta", Unit::MicrometrePerSecond, "table velocity"),
+            SignalSpec::new("disturbance_compensation", Unit::Newton, "force terms"),
+            SignalSpec::new("damping_compensation", Unit::Newton, "force terms"),
+            SignalSpec::new("force_command", Unit::Newton, "force terms"),
         ]
-        .map(String::from)
-        .to_vec()
     }
 
     fn internal_values(&self, values: &mut [f64]) {

@@ -19,7 +19,7 @@ use crate::arm_servo::{ArmServo, ServoParams};
 use crate::event::Event;
 use crate::filters::FirstOrderFilter;
 use crate::registry::{parse_params, Entry};
-use crate::{Controller, ControllerError, Measurement, PlantInterface};
+use crate::{Controller, ControllerError, Measurement, PlantInterface, SignalSpec, Unit};
 use serde::Deserialize;
 
 const NAME: &str = "path-speed-adaptive";
@@ -233,22 +233,22 @@ impl Controller for PathSpeedAdaptive {
         }
     }
 
-    fn internal_names(&self) -> Vec<String> {
-        let mut names: Vec<String> = ["path_speed", "speed_demand", "overload", "path_position"]
-            .map(String::from)
-            .to_vec();
-        names.extend(MOTORS.iter().map(|m| format!("{m}_current_filtered")));
-        names.extend(
-            crate::arm_servo::JOINTS
-                .iter()
-                .map(|j| format!("{j}_error")),
-        );
-        names.extend(
-            crate::arm_servo::JOINTS
-                .iter()
-                .map(|j| format!("{j}_current_command")),
-        );
-        names
+    fn internals(&self) -> Vec<SignalSpec> {
+        let mut specs = vec![
+            SignalSpec::new("path_speed", Unit::MillimetrePerSecond, "path speed"),
+            SignalSpec::new("speed_demand", Unit::MillimetrePerSecond, "path speed"),
+            SignalSpec::new("overload", Unit::Dimensionless, "overload"),
+            SignalSpec::new("path_position", Unit::Millimetre, "path position"),
+        ];
+        specs.extend(MOTORS.iter().map(|m| {
+            SignalSpec::new(
+                format!("{m}_current_filtered"),
+                Unit::Ampere,
+                format!("{m} current"),
+            )
+        }));
+        specs.extend(crate::arm_servo::internals());
+        specs
     }
 
     fn internal_values(&self, values: &mut [f64]) {
@@ -348,7 +348,7 @@ mod tests {
             signals[2 * i] = start[i];
         }
         let mut efforts = [0.0; 3];
-        let mut values = vec![0.0; controller.internal_names().len()];
+        let mut values = vec![0.0; controller.internals().len()];
         let mut run =
             |controller: &mut PathSpeedAdaptive, from: f64, seconds: f64, current: f64| {
                 for k in 0..(seconds * 1e3) as usize {

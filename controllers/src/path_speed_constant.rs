@@ -13,7 +13,7 @@ use crate::event::Event;
 use crate::filters::FirstOrderFilter;
 use crate::path_speed_adaptive::PAPER_PATH_SPEED_MM_S;
 use crate::registry::{parse_params, Entry};
-use crate::{Controller, ControllerError, Measurement, PlantInterface};
+use crate::{Controller, ControllerError, Measurement, PlantInterface, SignalSpec, Unit};
 use serde::Deserialize;
 
 const NAME: &str = "path-speed-constant";
@@ -123,19 +123,13 @@ impl Controller for PathSpeedConstant {
         }
     }
 
-    fn internal_names(&self) -> Vec<String> {
-        let mut names: Vec<String> = ["path_speed", "path_position"].map(String::from).to_vec();
-        names.extend(
-            crate::arm_servo::JOINTS
-                .iter()
-                .map(|j| format!("{j}_error")),
-        );
-        names.extend(
-            crate::arm_servo::JOINTS
-                .iter()
-                .map(|j| format!("{j}_current_command")),
-        );
-        names
+    fn internals(&self) -> Vec<SignalSpec> {
+        let mut specs = vec![
+            SignalSpec::new("path_speed", Unit::MillimetrePerSecond, "path speed"),
+            SignalSpec::new("path_position", Unit::Millimetre, "path position"),
+        ];
+        specs.extend(crate::arm_servo::internals());
+        specs
     }
 
     fn internal_values(&self, values: &mut [f64]) {

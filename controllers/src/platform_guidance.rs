@@ -8,7 +8,7 @@
 //! heading (the platform is placed there).
 
 use crate::platform_model::{Odometry, PlatformModel};
-use crate::{ControllerError, Measurement, PlantInterface};
+use crate::{ControllerError, Measurement, PlantInterface, SignalSpec, Unit};
 
 /// Signals the platform controllers read.
 const SIGNALS: [&str; 7] = [
@@ -102,15 +102,16 @@ impl Guide {
         &self.model
     }
 
-    /// Names of [`values`](Self::values).
-    pub fn names() -> [&'static str; 6] {
-        [
-            "odometry.x_h",
-            "odometry.y_h",
-            "odometry.heading",
-            "odometry.tracking_error",
-            "correction.vx_h",
-            "correction.vy_h",
+    /// What [`values`](Self::values) are: the odometry's estimate of point h and heading (on
+    /// the plots of the planned and true ones), its tracking error and the correction.
+    pub fn internals() -> Vec<SignalSpec> {
+        vec![
+            SignalSpec::new("odometry.x_h", Unit::Metre, "point h x"),
+            SignalSpec::new("odometry.y_h", Unit::Metre, "point h y"),
+            SignalSpec::new("odometry.heading", Unit::Degree, "heading"),
+            SignalSpec::new("odometry.tracking_error", Unit::Millimetre, "tracking error"),
+            SignalSpec::new("correction.vx_h", Unit::MillimetrePerSecond, "velocity correction"),
+            SignalSpec::new("correction.vy_h", Unit::MillimetrePerSecond, "velocity correction"),
         ]
     }
 

@@ -17,7 +17,7 @@ use crate::filters::FirstOrderFilter;
 use crate::platform_guidance::{wheel_actuators, Guide};
 use crate::platform_model::PlatformModel;
 use crate::registry::{parse_params, Entry};
-use crate::{Controller, ControllerError, Measurement, PlantInterface};
+use crate::{Controller, ControllerError, Measurement, PlantInterface, SignalSpec, Unit};
 use serde::Deserialize;
 
 /// Parameters of `pid` (SI units).
@@ -207,18 +207,15 @@ impl Controller for PlatformPid {
         efforts[self.actuators[1]] = self.torque[1];
     }
 
-    fn internal_names(&self) -> Vec<String> {
-        let mut names: Vec<String> = Guide::names().map(String::from).to_vec();
-        names.extend(
-            [
-                "speed_error",
-                "yaw_rate_error",
-                "torque.left",
-                "torque.right",
-            ]
-            .map(String::from),
-        );
-        names
+    fn internals(&self) -> Vec<SignalSpec> {
+        let mut specs = Guide::internals();
+        specs.extend([
+            SignalSpec::new("speed_error", Unit::MillimetrePerSecond, "speed error"),
+            SignalSpec::new("yaw_rate_error", Unit::Rpm, "yaw rate error"),
+            SignalSpec::new("torque.left", Unit::NewtonMetre, "wheel torque commands"),
+            SignalSpec::new("torque.right", Unit::NewtonMetre, "wheel torque commands"),
+        ]);
+        specs
     }
 
     fn internal_values(&self, values: &mut [f64]) {

@@ -3,7 +3,7 @@
 
 use crate::registry::{parse_params, Entry};
 use crate::spindle_speed::{SpeedLoop, SpeedLoopParams};
-use crate::{Controller, ControllerError, Measurement, PlantInterface};
+use crate::{Controller, ControllerError, Measurement, PlantInterface, SignalSpec};
 use serde::Deserialize;
 
 const NAME: &str = "spindle-constant";
@@ -69,12 +69,8 @@ impl Controller for SpindleConstant {
             .update(measurement, (self.speed, 0.0), period, efforts);
     }
 
-    fn internal_names(&self) -> Vec<String> {
-        vec![
-            "speed_command".into(),
-            "speed_error".into(),
-            "torque".into(),
-        ]
+    fn internals(&self) -> Vec<SignalSpec> {
+        crate::spindle_speed::internals()
     }
 
     fn internal_values(&self, values: &mut [f64]) {

@@ -19,7 +19,7 @@
 
 use crate::registry::{parse_params, Entry};
 use crate::spindle_speed::{SpeedLoop, SpeedLoopParams};
-use crate::{Controller, ControllerError, Measurement, PlantInterface};
+use crate::{Controller, ControllerError, Measurement, PlantInterface, SignalSpec, Unit};
 use models::milling::{force_direction, MillingCutParams};
 use serde::Deserialize;
 use std::collections::VecDeque;
@@ -261,10 +261,13 @@ impl Controller for OptimalLinear {
             .update(measurement, (self.command, rate), period, efforts);
     }
 
-    fn internal_names(&self) -> Vec<String> {
-        ["speed_command", "speed_change", "speed_error", "torque"]
-            .map(String::from)
-            .to_vec()
+    fn internals(&self) -> Vec<SignalSpec> {
+        let mut specs = crate::spindle_speed::internals();
+        specs.insert(
+            1,
+            SignalSpec::new("speed_change", Unit::Rpm, "spindle speed change"),
+        );
+        specs
     }
 
     fn internal_values(&self, values: &mut [f64]) {

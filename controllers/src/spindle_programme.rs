@@ -4,7 +4,7 @@
 
 use crate::registry::{parse_params, Entry};
 use crate::spindle_speed::{SpeedLoop, SpeedLoopParams};
-use crate::{Controller, ControllerError, Measurement, PlantInterface};
+use crate::{Controller, ControllerError, Measurement, PlantInterface, SignalSpec};
 use serde::Deserialize;
 use std::f64::consts::TAU;
 
@@ -115,12 +115,8 @@ impl Controller for SpindleProgramme {
             .update(measurement, self.command, period, efforts);
     }
 
-    fn internal_names(&self) -> Vec<String> {
-        vec![
-            "speed_command".into(),
-            "speed_error".into(),
-            "torque".into(),
-        ]
+    fn internals(&self) -> Vec<SignalSpec> {
+        crate::spindle_speed::internals()
     }
 
     fn internal_values(&self, values: &mut [f64]) {

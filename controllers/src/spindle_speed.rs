@@ -7,7 +7,7 @@
 //! `s² + 2ζω_n s + ω_n² = 0`: `kp = 2ζω_n·J`, `ki = ω_n²·J`. The cutting torque is a disturbance
 //! the integrator removes; its tooth-frequency ripple lies far above the loop's bandwidth.
 
-use crate::{ControllerError, Measurement, PlantInterface};
+use crate::{ControllerError, Measurement, PlantInterface, SignalSpec, Unit};
 use serde::Deserialize;
 
 /// Parameters of the spindle-speed loop (SI units).
@@ -71,6 +71,16 @@ pub fn design(controller: &str, params: &SpeedLoopParams) -> Result<SpeedGains, 
         return Err(bad("natural_frequency × inertia (the gains overflow)"));
     }
     Ok(gains)
+}
+
+/// The internals a spindle-speed controller records: the speed it commands (on the spindle
+/// speed's plot), the loop's error and its torque.
+pub fn internals() -> Vec<SignalSpec> {
+    vec![
+        SignalSpec::new("speed_command", Unit::Rpm, "spindle speed"),
+        SignalSpec::new("speed_error", Unit::Rpm, "spindle speed error"),
+        SignalSpec::new("torque", Unit::NewtonMetre, "spindle torque"),
+    ]
 }
 
 /// The running loop: integrator frozen while the torque is clipped (anti-windup).

@@ -31,7 +31,7 @@
 use crate::filters::FirstOrderFilter;
 use crate::p_pi::{FeedAxis, FeedAxisSample};
 use crate::registry::{parse_params, Entry};
-use crate::{Controller, ControllerError, Measurement, PlantInterface};
+use crate::{Controller, ControllerError, Measurement, PlantInterface, SignalSpec, Unit};
 use serde::Deserialize;
 
 /// Parameters of `stsmc` (SI units).
@@ -169,15 +169,18 @@ pub(crate) struct SuperTwistingLaw {
 }
 
 impl SuperTwistingLaw {
-    pub(crate) const INTERNAL_NAMES: [&'static str; 7] = [
-        "position_error",
-        "velocity_estimate",
-        "surface",
-        "equivalent_force",
-        "twisting_force",
-        "switching_integral",
-        "force_command",
-    ];
+    /// The law's internals, in the order of [`SuperTwistingLaw::internal_values`].
+    pub(crate) fn internals() -> Vec<SignalSpec> {
+        vec![
+            SignalSpec::new("position_error", Unit::Micrometre, "table position error"),
+            SignalSpec::new("velocity_estimate", Unit::MicrometrePerSecond, "table velocity"),
+            SignalSpec::new("surface", Unit::MicrometrePerSecond, "sliding surface"),
+            SignalSpec::new("equivalent_force", Unit::Newton, "force terms"),
+            SignalSpec::new("twisting_force", Unit::Newton, "force terms"),
+            SignalSpec::new("switching_integral", Unit::Newton, "force terms"),
+            SignalSpec::new("force_command", Unit::Newton, "force terms"),
+        ]
+    }
 
     pub(crate) fn new(controller: &str, params: &StsmcParams) -> Result<Self, ControllerError> {
         let gains = design_for(controller, params)?;
@@ -304,8 +307,8 @@ impl Controller for Stsmc {
         efforts[axis.actuator()] = self.law.update(&sample, period, 0.0, axis.effort_limit());
     }
 
-    fn internal_names(&self) -> Vec<String> {
-        SuperTwistingLaw::INTERNAL_NAMES.map(String::from).to_vec()
+    fn internals(&self) -> Vec<SignalSpec> {
+        SuperTwistingLaw::internals()
     }
 
     fn internal_values(&self, values: &mut [f64]) {

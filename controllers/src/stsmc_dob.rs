@@ -28,7 +28,7 @@ use crate::filters::{FilterError, FirstOrderFilter};
 use crate::p_pi::FeedAxis;
 use crate::registry::{parse_params, Entry};
 use crate::stsmc::{StsmcParams, SuperTwistingLaw};
-use crate::{Controller, ControllerError, Measurement, PlantInterface};
+use crate::{Controller, ControllerError, Measurement, PlantInterface, SignalSpec, Unit};
 use serde::Deserialize;
 
 /// The observer's own parameters (SI units).
@@ -210,12 +210,14 @@ impl Controller for StsmcDob {
         efforts[axis.actuator()] = self.applied_force;
     }
 
-    fn internal_names(&self) -> Vec<String> {
-        SuperTwistingLaw::INTERNAL_NAMES
-            .iter()
-            .chain(&["disturbance_estimate"])
-            .map(|name| name.to_string())
-            .collect()
+    fn internals(&self) -> Vec<SignalSpec> {
+        let mut specs = SuperTwistingLaw::internals();
+        specs.push(SignalSpec::new(
+            "disturbance_estimate",
+            Unit::Newton,
+            "force terms",
+        ));
+        specs
     }
 
     fn internal_values(&self, values: &mut [f64]) {
@@ -337,8 +339,8 @@ mod tests {
         let names = Registry::builtin()
             .build("stsmc-dob", &table)
             .unwrap()
-            .internal_names();
-        assert_eq!(names.last().unwrap(), "disturbance_estimate");
+            .internals();
+        assert_eq!(names.last().unwrap().name, "disturbance_estimate");
     }
 
     #[test]

@@ -16,6 +16,7 @@ pub mod recording;
 pub mod reproduce;
 pub mod run;
 pub mod scenario;
+pub mod scene;
 pub mod sensors;
 pub mod spectrum;
 pub mod study;

@@ -15,7 +15,7 @@ use super::slider::SliderModel;
 use super::task::{bad, LawInput, TaskController, TaskDesign, TaskLaw, TaskParams};
 use crate::design::{ackermann, second_order_polynomial};
 use crate::registry::{parse_params, Entry};
-use crate::ControllerError;
+use crate::{ControllerError, SignalSpec, Unit};
 use serde::Deserialize;
 
 /// Parameters of `ffc` (SI units).
@@ -93,8 +93,11 @@ impl TaskLaw for FeedforwardFeedback {
         self.feedforward + self.feedback
     }
 
-    fn internal_names(&self) -> Vec<String> {
-        ["feedforward", "feedback"].map(String::from).to_vec()
+    fn internals(&self) -> Vec<SignalSpec> {
+        vec![
+            SignalSpec::new("feedforward", Unit::Newton, "slider force"),
+            SignalSpec::new("feedback", Unit::Newton, "slider force"),
+        ]
     }
 
     fn internal_values(&self, values: &mut [f64]) {

@@ -28,7 +28,7 @@ use super::slider::SliderModel;
 use super::task::{bad, LawInput, TaskController, TaskDesign, TaskLaw, TaskParams};
 use crate::design::{slider_hyperplane, SliderWeights};
 use crate::registry::{parse_params, Entry};
-use crate::ControllerError;
+use crate::{ControllerError, SignalSpec, Unit};
 use serde::Deserialize;
 
 /// Parameters of `osmc` (SI units).
@@ -183,12 +183,17 @@ impl TaskLaw for SecondOrderSliding {
         force
     }
 
-    fn internal_names(&self) -> Vec<String> {
-        ["s", "sigma", "k_x", "s_x"].map(String::from).to_vec()
+    fn internals(&self) -> Vec<SignalSpec> {
+        vec![
+            SignalSpec::new("s", Unit::NewtonSecond, "sliding surface"),
+            SignalSpec::new("sigma", Unit::NewtonSecond, "sliding surface"),
+            SignalSpec::new("s_x", Unit::NewtonSecond, "sliding surface"),
+            SignalSpec::new("k_x", Unit::Second, "switching integral"),
+        ]
     }
 
     fn internal_values(&self, values: &mut [f64]) {
-        values.copy_from_slice(&[self.s, self.sigma, self.k_x, self.s_x]);
+        values.copy_from_slice(&[self.s, self.sigma, self.s_x, self.k_x]);
     }
 }
 

@@ -22,7 +22,7 @@
 use super::slider::SliderModel;
 use super::switching::{Mode, ReturnPlan, StrokeSwitch};
 use crate::event::Event;
-use crate::{Controller, ControllerError, Measurement, PlantInterface};
+use crate::{Controller, ControllerError, Measurement, PlantInterface, SignalSpec, Unit};
 use models::velocity_profile::{ProfileParams, ProfileSample, VelocityProfile};
 use models::whitworth::Geometry;
 use models::whitworth_dynamics::{Dynamics, LinkMasses};
@@ -145,7 +145,7 @@ pub trait TaskLaw: Send {
     fn restart(&mut self, time: f64, error: [f64; 2]);
     /// The slider force u, N.
     fn force(&mut self, input: &LawInput) -> f64;
-    fn internal_names(&self) -> Vec<String>;
+    fn internals(&self) -> Vec<SignalSpec>;
     fn internal_values(&self, values: &mut [f64]);
 }
 
@@ -181,16 +181,24 @@ pub struct TaskController<L> {
 }
 
 /// The controller-independent internal signals, in order.
-const SHARED_INTERNALS: [&str; 8] = [
-    "mode",
-    "reference",
-    "reference_rate",
-    "position_error",
-    "velocity_error",
-    "u",
-    "rho_hat",
-    "torque",
-];
+/// How many of a task controller's internals are [`shared_internals`].
+const SHARED_INTERNAL_COUNT: usize = 8;
+
+/// The internals every Whitworth task controller records before its law's: the mode, the
+/// reference it tracks (on the ram's plots), the errors, the slider force u, the estimated lever
+/// ρ̂ (crank torque per slider force) and the crank torque.
+fn shared_internals() -> Vec<SignalSpec> {
+    vec![
+        SignalSpec::new("mode", Unit::Dimensionless, "mode"),
+        SignalSpec::new("reference", Unit::Millimetre, "ram position"),
+        SignalSpec::new("reference_rate", Unit::MetrePerSecond, "ram velocity"),
+        SignalSpec::new("position_error", Unit::Micrometre, "ram position error"),
+        SignalSpec::new("velocity_error", Unit::MillimetrePerSecond, "ram velocity error"),
+        SignalSpec::new("u", Unit::Newton, "slider force"),
+        SignalSpec::new("rho_hat", Unit::Millimetre, "lever estimate"),
+        SignalSpec::new("torque", Unit::NewtonMetre, "crank torque"),
+    ]
+}
 
 impl<L: TaskLaw> TaskController<L> {
     pub fn new(name: &'static str, params: TaskParams, design: TaskDesign, law: L) -> Self {
@@ -368,14 +376,14 @@ impl<L: TaskLaw> Controller for TaskController<L> {
         efforts[self.actuator] = torque;
     }
 
-    fn internal_names(&self) -> Vec<String> {
-        let mut names: Vec<String> = SHARED_INTERNALS.map(String::from).to_vec();
-        names.extend(self.law.internal_names());
-        names
+    fn internals(&self) -> Vec<SignalSpec> {
+        let mut specs = shared_internals();
+        specs.extend(self.law.internals());
+        specs
     }
 
     fn internal_values(&self, values: &mut [f64]) {
-        let (shared, own) = values.split_at_mut(SHARED_INTERNALS.len());
+        let (shared, own) = values.split_at_mut(SHARED_INTERNAL_COUNT);
         shared.copy_from_slice(&[
             self.mode.map_or(-1.0, Mode::number),
             self.reference.position,
@@ -510,7 +518,7 @@ mod tests {
     fn internals_cover_the_shared_signals_and_the_law() {
         let mut controller = osmc(TaskParams::default()).unwrap();
         controller.reset(&Plant::twin().interface()).unwrap();
-        let names = controller.internal_names();
+        let names = crate::signal::names(&controller.internals());
         for name in [
             "mode",
             "reference",

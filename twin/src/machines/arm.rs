@@ -67,6 +67,8 @@ mod spindle;
 use super::{joint, link, process_params, Machine, MachineError};
 use crate::mechanism::Mechanism;
 use crate::physics::{Load, MechanismState, NO_DAMPING, NO_STIFFNESS};
+use crate::scene::{colors, Bounds, Drawing, Marker, MarkerSource, Scene};
+use controllers::{Actuator, SignalSpec, Unit};
 use figures::{Figures, Sample};
 use models::arm_milling::{CutLoad, Cutter, CutterParams, MillingMode, Stock};
 use models::arm_path::{Contour, ContourPath, Projection};
@@ -337,29 +339,39 @@ fn couple(link: usize, centre: [f64; 2], torque: f64, loads: &mut Vec<Load>) {
 }
 
 impl Machine for Arm {
-    fn signal_names(&self) -> Vec<String> {
-        [
-            "shoulder_current",
-            "elbow_current",
-            "wrist_current",
-            "spindle_current",
-            "tool_x",
-            "tool_y",
-        ]
-        .map(String::from)
-        .to_vec()
+    fn signals(&self) -> Vec<SignalSpec> {
+        let mut specs: Vec<SignalSpec> = ["shoulder", "elbow", "wrist", "spindle"]
+            .iter()
+            .map(|m| SignalSpec::new(format!("{m}_current"), Unit::Ampere, format!("{m} current")))
+            .collect();
+        specs.extend([
+            SignalSpec::new("tool_x", Unit::Millimetre, "tool point"),
+            SignalSpec::new("tool_y", Unit::Millimetre, "tool point"),
+        ]);
+        specs
     }
 
-    fn diagnostic_names(&self) -> Vec<String> {
-        [
-            "path_deviation",
-            "path_position",
-            "radial_depth",
-            "cutting_force",
-            "spindle_load_torque",
+    fn diagnostics(&self) -> Vec<SignalSpec> {
+        vec![
+            SignalSpec::new("path_deviation", Unit::Micrometre, "path deviation"),
+            SignalSpec::new("path_position", Unit::Millimetre, "path position"),
+            SignalSpec::new("radial_depth", Unit::Millimetre, "radial depth"),
+            SignalSpec::new("cutting_force", Unit::Newton, "cutting force"),
+            SignalSpec::new(
+                "spindle_load_torque",
+                Unit::NewtonMetre,
+                "spindle load torque",
+            ),
         ]
-        .map(String::from)
-        .to_vec()
+    }
+
+    /// The controller commands each drive's current (A), shown with the current it gets.
+    fn command_unit(&self, _actuator: &Actuator) -> Unit {
+        Unit::Ampere
+    }
+
+    fn scene(&self) -> Scene {
+        scene(&self.contour, &self.stock)
     }
 
     fn measure(
@@ -460,6 +472,54 @@ impl Machine for Arm {
         let mut metrics = self.figures.metrics(self.time);
         metrics.push(("deep_zone_depth".into(), self.deep_zone_depth));
         metrics
+    }
+}
+
+/// The arm's reach around its base with the part: its finished contour, the cast stock's outline
+/// (the contour offset by the stock depth, on the right of travel) and the tool point's trace.
+fn scene(contour: &ContourPath, stock: &Stock) -> Scene {
+    const SAMPLES: usize = 300;
+    /// The arm's reach from its base, m (upper arm + forearm + hand).
+    const REACH: f64 = 0.88;
+    let mut finished = Vec::with_capacity(SAMPLES + 1);
+    let mut outline = Vec::with_capacity(SAMPLES + 1);
+    for i in 0..=SAMPLES {
+        let along = contour.length() * i as f64 / SAMPLES as f64;
+        let ([x, y], [tx, ty]) = contour.point(along);
+        let depth = stock.depth_at(along);
+        finished.push([x, y]);
+        outline.push([x + ty * depth, y - tx * depth]);
+    }
+    let corners = [[-REACH, 0.0], [REACH, 0.0], [0.0, REACH], [0.0, -0.2]];
+    let frame = corners.into_iter().chain(finished.iter().copied());
+    let bounds = Bounds::around(frame, 0.03).unwrap_or(Bounds {
+        x: [-1.0, 1.0],
+        y: [-1.0, 1.0],
+    });
+    Scene {
+        title: "arm and part (m, y up)".into(),
+        bounds,
+        drawings: vec![
+            Drawing {
+                name: "stock".into(),
+                color: colors::WORKPIECE,
+                lines: vec![outline],
+                label: "stock".into(),
+            },
+            Drawing {
+                name: "contour".into(),
+                color: colors::TARGET,
+                lines: vec![finished],
+                label: "contour".into(),
+            },
+        ],
+        markers: vec![Marker {
+            name: "tool_point".into(),
+            color: colors::TOOL,
+            label: "tool".into(),
+            source: MarkerSource::at("tool_x", "tool_y"),
+            trace: true,
+        }],
     }
 }
 

@@ -22,8 +22,10 @@
 //! scenario's `[reference]`, handed to the controller unchanged) and report their largest
 //! magnitude and σ, the columns of Table I (see `twin::evaluate`).
 
-use super::{joint, process_params, Machine, MachineError};
-use crate::mechanism::{JointMotion, Mechanism, Pose2};
+use super::{default_joint_signals, joint, process_params, Machine, MachineError};
+use crate::mechanism::{Joint, JointMotion, Mechanism, Pose2};
+use crate::scene::{colors, Bounds, Drawing, Marker, MarkerSource, Scene};
+use controllers::{SignalSpec, Unit};
 use crate::physics::{Load, MechanismState, NO_DAMPING, NO_STIFFNESS};
 use models::micromilling::{MicroMillingCut, MicroMillingParams};
 use serde::Deserialize;
@@ -163,12 +165,40 @@ impl FeedAxis {
 }
 
 impl Machine for FeedAxis {
-    fn signal_names(&self) -> Vec<String> {
-        vec!["table_current".into()]
+    fn signals(&self) -> Vec<SignalSpec> {
+        vec![SignalSpec::new("table_current", Unit::Ampere, "table current")]
     }
 
-    fn diagnostic_names(&self) -> Vec<String> {
-        vec!["cutting_force".to_string()]
+    fn diagnostics(&self) -> Vec<SignalSpec> {
+        vec![SignalSpec::new("cutting_force", Unit::Newton, "cutting force")]
+    }
+
+    fn reference(&self) -> Option<[SignalSpec; 3]> {
+        Some([
+            SignalSpec::new("reference", Unit::Micrometre, "table position"),
+            SignalSpec::new("reference_rate", Unit::MicrometrePerSecond, "table velocity"),
+            SignalSpec::new(
+                "reference_acceleration",
+                Unit::MetrePerSecondSquared,
+                "table acceleration",
+            ),
+        ])
+    }
+
+    /// The table moves micrometres: its position and velocity are shown in µm and µm/s, on the
+    /// plots of the reference.
+    fn joint_signals(&self, joint: &Joint) -> [SignalSpec; 2] {
+        if joint.name != "table" {
+            return default_joint_signals(joint);
+        }
+        [
+            SignalSpec::new("table.position", Unit::Micrometre, "table position"),
+            SignalSpec::new("table.velocity", Unit::MicrometrePerSecond, "table velocity"),
+        ]
+    }
+
+    fn scene(&self) -> Scene {
+        scene()
     }
 
     fn measure(
@@ -226,5 +256,58 @@ impl Machine for FeedAxis {
             metrics.push(("cutting_force_peak".into(), self.cutting_force_peak));
         }
         metrics
+    }
+}
+
+/// Magnification of the table's motion on the view's gauge: 1 µm is drawn as 50 mm.
+const GAUGE_MAGNIFICATION: f64 = 5.0e4;
+/// Height of the gauge above the table, m.
+const GAUGE_HEIGHT: f64 = 0.07;
+
+/// The axis at true scale (base and table, which moves micrometres), with a gauge above it where
+/// the reference and the table's position are drawn magnified [`GAUGE_MAGNIFICATION`] times,
+/// ticks every µm.
+fn scene() -> Scene {
+    let gauge = |x: f64| GAUGE_MAGNIFICATION * x;
+    let mut lines = vec![vec![[gauge(-4e-6), GAUGE_HEIGHT], [gauge(4e-6), GAUGE_HEIGHT]]];
+    lines.extend((-4..=4).map(|um| {
+        let x = gauge(f64::from(um) * 1e-6);
+        let half = if um == 0 { 0.012 } else { 0.006 };
+        vec![[x, GAUGE_HEIGHT - half], [x, GAUGE_HEIGHT + half]]
+    }));
+    let magnified = |x: &str| MarkerSource {
+        x: Some(x.into()),
+        y: None,
+        scale: GAUGE_MAGNIFICATION,
+        origin: [0.0, GAUGE_HEIGHT],
+    };
+    Scene {
+        title: "feed axis (m, y up) · gauge: position ×50 000, ticks 1 µm".into(),
+        bounds: Bounds {
+            x: [-0.3, 0.3],
+            y: [-0.08, 0.12],
+        },
+        drawings: vec![Drawing {
+            name: "gauge".into(),
+            color: colors::WORKPIECE,
+            lines,
+            label: "±4 µm gauge (×50 000)".into(),
+        }],
+        markers: vec![
+            Marker {
+                name: "reference".into(),
+                color: colors::TARGET,
+                label: "reference".into(),
+                source: magnified("reference"),
+                trace: false,
+            },
+            Marker {
+                name: "table".into(),
+                color: colors::TRUE,
+                label: "table".into(),
+                source: magnified("table.position"),
+                trace: false,
+            },
+        ],
     }
 }

@@ -16,8 +16,10 @@
 //! The cutting force acts on the slide against its feed and, tangentially at the cut diameter, on
 //! the part against its rotation: a torque F_i D_i / 2 on the spindle.
 
-use super::{joint, process_params, Machine, MachineError};
-use crate::mechanism::{JointMotion, Mechanism};
+use super::{default_joint_signals, joint, process_params, Machine, MachineError};
+use crate::mechanism::{Joint, JointMotion, Mechanism};
+use crate::scene::{colors, Bounds, Drawing, Marker, MarkerSource, Scene};
+use controllers::{SignalSpec, Unit};
 use crate::physics::{Load, MechanismState, NO_DAMPING, NO_STIFFNESS};
 use models::lathe::{Lathe, LatheParams, TOOLS};
 use serde::Deserialize;
@@ -163,20 +165,41 @@ impl ParallelLathe {
 }
 
 impl Machine for ParallelLathe {
-    fn signal_names(&self) -> Vec<String> {
-        [
-            "feed_1",
-            "feed_2",
-            "cutting_force_1",
-            "cutting_force_2",
-            "spindle_power",
+    fn signals(&self) -> Vec<SignalSpec> {
+        vec![
+            SignalSpec::new("feed_1", Unit::MillimetrePerRev, "tool 1 feed"),
+            SignalSpec::new("feed_2", Unit::MillimetrePerRev, "tool 2 feed"),
+            SignalSpec::new("cutting_force_1", Unit::Newton, "cutting force"),
+            SignalSpec::new("cutting_force_2", Unit::Newton, "cutting force"),
+            SignalSpec::new("spindle_power", Unit::Kilowatt, "spindle power"),
         ]
-        .map(String::from)
-        .to_vec()
     }
 
-    fn diagnostic_names(&self) -> Vec<String> {
-        vec!["cutting_torque".into()]
+    fn diagnostics(&self) -> Vec<SignalSpec> {
+        vec![SignalSpec::new(
+            "cutting_torque",
+            Unit::NewtonMetre,
+            "spindle cutting torque",
+        )]
+    }
+
+    fn joint_signals(&self, joint: &Joint) -> [SignalSpec; 2] {
+        let [position, velocity] = default_joint_signals(joint);
+        if joint.name == "spindle" {
+            return [
+                position,
+                SignalSpec::new(velocity.name, Unit::Rpm, "spindle speed"),
+            ];
+        }
+        [position, velocity]
+    }
+
+    fn scene(&self) -> Scene {
+        let params = self.lathe.params();
+        side_view(
+            [params.tools[0].diameter, params.tools[1].diameter],
+            self.shoulders,
+        )
     }
 
     fn measure(
@@ -336,6 +359,59 @@ impl CutRecord {
             ));
         }
         metrics
+    }
+}
+
+/// Where the side view's part starts along x, m: right of the end view the URDF draws.
+const SIDE_VIEW_X: f64 = 0.16;
+/// Length of part drawn in the side view, m (a 3 s run feeds about 40 mm).
+const SIDE_VIEW_LENGTH: f64 = 0.08;
+
+/// Tool `i`'s tip in the side view: along the part axis by its slide's travel, on the part's edge
+/// at its cut diameter (tool 1 above the axis, tool 2 below).
+fn side_view_point(i: usize, diameter: f64, travel: f64) -> [f64; 2] {
+    let side = if i == 0 { 1.0 } else { -1.0 };
+    [SIDE_VIEW_X + travel, side * diameter / 2.0]
+}
+
+/// The URDF's end view (along the spindle) beside a side view where the feed shows: the part's
+/// edges at each tool's cut diameter from where the tool meets it, and each tool tip tracing the
+/// length it has turned.
+fn side_view(diameters: [f64; TOOLS], starts: [f64; TOOLS]) -> Scene {
+    let edges = (0..TOOLS)
+        .map(|i| {
+            let start = side_view_point(i, diameters[i], starts[i]);
+            vec![start, [SIDE_VIEW_X + SIDE_VIEW_LENGTH, start[1]]]
+        })
+        .collect();
+    let radius = diameters[0].max(diameters[1]) / 2.0;
+    let markers = (0..TOOLS)
+        .map(|i| Marker {
+            name: format!("tool_{}", i + 1),
+            color: colors::TOOL,
+            label: format!("tool {}", i + 1),
+            source: MarkerSource {
+                x: Some(format!("{}.position", SLIDES[i])),
+                y: None,
+                scale: 1.0,
+                origin: side_view_point(i, diameters[i], 0.0),
+            },
+            trace: true,
+        })
+        .collect();
+    Scene {
+        title: "lathe: end view (left), side view with the feed (right); m, y up".into(),
+        bounds: Bounds {
+            x: [-0.13, SIDE_VIEW_X + SIDE_VIEW_LENGTH + 0.02],
+            y: [-0.14_f64.min(-radius - 0.03), 0.14_f64.max(radius + 0.03)],
+        },
+        drawings: vec![Drawing {
+            name: "part_side_view".into(),
+            color: colors::WORKPIECE,
+            lines: edges,
+            label: "part, side view".into(),
+        }],
+        markers,
     }
 }
 

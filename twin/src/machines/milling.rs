@@ -12,8 +12,10 @@
 //! the same angle), and the diagnostics `cutting_force_x`, `cutting_force_y` (N),
 //! `spindle_cutting_torque` (N·m), `chip_thickness` (m, the thickest chip) and `flutes_cutting`.
 
-use super::{joint, process_params, Machine, MachineError};
-use crate::mechanism::{JointMotion, Mechanism};
+use super::{default_joint_signals, joint, process_params, Machine, MachineError};
+use crate::mechanism::{Joint, JointMotion, Mechanism};
+use crate::scene::{colors, Bounds, Drawing, Marker, MarkerSource, Scene};
+use controllers::{SignalSpec, Unit};
 use crate::physics::{Load, MechanismState, NO_DAMPING, NO_STIFFNESS};
 use models::milling::{CutForces, MillingCut, MillingCutParams, MAX_FLUTES};
 use serde::Deserialize;
@@ -127,20 +129,54 @@ fn tool_joints(mechanism: &Mechanism, frame: usize) -> Result<ToolJoints, Machin
 }
 
 impl Machine for Milling {
-    fn signal_names(&self) -> Vec<String> {
-        vec!["regenerative_delay".into()]
+    fn signals(&self) -> Vec<SignalSpec> {
+        vec![SignalSpec::new(
+            "regenerative_delay",
+            Unit::Millisecond,
+            "regenerative delay",
+        )]
     }
 
-    fn diagnostic_names(&self) -> Vec<String> {
-        [
-            "cutting_force_x",
-            "cutting_force_y",
-            "spindle_cutting_torque",
-            "chip_thickness",
-            "flutes_cutting",
+    fn diagnostics(&self) -> Vec<SignalSpec> {
+        vec![
+            SignalSpec::new("cutting_force_x", Unit::Newton, "cutting force"),
+            SignalSpec::new("cutting_force_y", Unit::Newton, "cutting force"),
+            SignalSpec::new(
+                "spindle_cutting_torque",
+                Unit::NewtonMetre,
+                "spindle cutting torque",
+            ),
+            SignalSpec::new("chip_thickness", Unit::Micrometre, "chip thickness"),
+            SignalSpec::new("flutes_cutting", Unit::Dimensionless, "flutes cutting"),
         ]
-        .map(String::from)
-        .to_vec()
+    }
+
+    /// The tool tip's deflection in µm; the spindle's speed in rpm on the plot of its command.
+    fn joint_signals(&self, joint: &Joint) -> [SignalSpec; 2] {
+        let name = joint.name.as_str();
+        if name == "tool_x" || name == "tool_y" {
+            return [
+                SignalSpec::new(format!("{name}.position"), Unit::Micrometre, "tool displacement"),
+                SignalSpec::new(
+                    format!("{name}.velocity"),
+                    Unit::MillimetrePerSecond,
+                    "tool velocity",
+                ),
+            ];
+        }
+        let [position, velocity] = default_joint_signals(joint);
+        if name == "spindle" {
+            return [
+                position,
+                SignalSpec::new(velocity.name, Unit::Rpm, "spindle speed"),
+            ];
+        }
+        [position, velocity]
+    }
+
+    fn scene(&self) -> Scene {
+        let radius = self.cut.as_ref().map_or(0.006, |c| c.params().tool_radius);
+        scene(radius)
     }
 
     fn measure(
@@ -216,5 +252,48 @@ impl Machine for Milling {
 
     fn metrics(&self) -> Vec<(String, f64)> {
         Vec::new()
+    }
+}
+
+/// Magnification of the tool tip's deflection in the view: its orbit is drawn 20 times larger.
+const ORBIT_MAGNIFICATION: f64 = 20.0;
+
+/// The tool seen along its axis: its circle at rest and the tip's deflection orbit, magnified
+/// [`ORBIT_MAGNIFICATION`] times, traced as the run goes (a chattering tool draws a wide orbit).
+fn scene(tool_radius: f64) -> Scene {
+    const SEGMENTS: usize = 64;
+    let circle = |r: f64| -> Vec<[f64; 2]> {
+        (0..=SEGMENTS)
+            .map(|i| {
+                let a = std::f64::consts::TAU * i as f64 / SEGMENTS as f64;
+                [r * a.cos(), r * a.sin()]
+            })
+            .collect()
+    };
+    let reach = 0.02_f64.max(2.0 * tool_radius);
+    Scene {
+        title: "tool along its axis (m, y up) · tip orbit ×20".into(),
+        bounds: Bounds {
+            x: [-reach, reach],
+            y: [-reach, reach],
+        },
+        drawings: vec![Drawing {
+            name: "tool_at_rest".into(),
+            color: colors::WORKPIECE,
+            lines: vec![circle(tool_radius)],
+            label: "tool at rest".into(),
+        }],
+        markers: vec![Marker {
+            name: "tip_orbit".into(),
+            color: colors::TOOL,
+            label: "tip ×20".into(),
+            source: MarkerSource {
+                x: Some("tool_x.position".into()),
+                y: Some("tool_y.position".into()),
+                scale: ORBIT_MAGNIFICATION,
+                origin: [0.0, 0.0],
+            },
+            trace: true,
+        }],
     }
 }

@@ -8,9 +8,10 @@ mod milling;
 mod platform;
 mod whitworth;
 
-use crate::mechanism::Mechanism;
+use crate::mechanism::{Joint, JointMotion, Mechanism};
 use crate::physics::{Load, MechanismState};
-use controllers::Actuator;
+use crate::scene::Scene;
+use controllers::{Actuator, EffortKind, SignalSpec, Unit};
 use thiserror::Error;
 
 #[derive(Debug, Error, Clone, PartialEq)]
@@ -29,13 +30,37 @@ pub enum MachineError {
 
 /// A machine built on a loaded mechanism.
 pub trait Machine {
-    /// Task-space and process signals, measured (through the sensors) by the controller, recorded.
-    fn signal_names(&self) -> Vec<String>;
+    /// Task-space and process signals, measured (through the sensors) by the controller,
+    /// recorded, each with its display unit and plot.
+    fn signals(&self) -> Vec<SignalSpec>;
 
     /// Signals recorded for the engineer but not given to the controller (model checks).
-    fn diagnostic_names(&self) -> Vec<String> {
+    fn diagnostics(&self) -> Vec<SignalSpec> {
         Vec::new()
     }
+
+    /// What the scenario's `[reference]` is a reference for: the units and plots of `reference`,
+    /// `reference_rate` and `reference_acceleration`, or `None` when the machine has no output
+    /// to track (a `[reference]` is then an error).
+    fn reference(&self) -> Option<[SignalSpec; 3]> {
+        None
+    }
+
+    /// How a movable joint's position and velocity are shown. The default: mm and mm/s for a
+    /// slide, degrees (wrapped when the joint turns without limits) and rpm for a turning joint.
+    fn joint_signals(&self, joint: &Joint) -> [SignalSpec; 2] {
+        default_joint_signals(joint)
+    }
+
+    /// The unit of the effort the controller commands on `actuator`: N·m or N, unless the
+    /// machine's drive takes another quantity (a current).
+    fn command_unit(&self, actuator: &Actuator) -> Unit {
+        effort_unit(actuator.kind)
+    }
+
+    /// What the mechanism view shows besides the links: its fixed frame, what is machined, and
+    /// the points traced as the run goes.
+    fn scene(&self) -> Scene;
 
     /// Fills the true signal and diagnostic values for the state at `time`; called every step.
     fn measure(
@@ -80,6 +105,32 @@ pub trait Machine {
     /// by name. Figures judged from signals are the scenario's `[[metrics]]`, computed by
     /// evaluators outside the machine.
     fn metrics(&self) -> Vec<(String, f64)>;
+}
+
+/// The unit of an effort: N·m for a torque, N for a force.
+pub fn effort_unit(kind: EffortKind) -> Unit {
+    match kind {
+        EffortKind::Torque => Unit::NewtonMetre,
+        EffortKind::Force => Unit::Newton,
+    }
+}
+
+/// A joint's position and velocity signals as [`Machine::joint_signals`] shows them by default.
+pub fn default_joint_signals(joint: &Joint) -> [SignalSpec; 2] {
+    let (position_unit, velocity_unit, positions, velocities) = match joint.motion {
+        JointMotion::Prismatic { .. } => (
+            Unit::Millimetre,
+            Unit::MillimetrePerSecond,
+            "joint positions",
+            "joint velocities",
+        ),
+        _ if joint.limits.is_none() => (Unit::DegreeWrapped, Unit::Rpm, "joint angles", "joint speeds"),
+        _ => (Unit::Degree, Unit::Rpm, "joint angles", "joint speeds"),
+    };
+    [
+        SignalSpec::new(format!("{}.position", joint.name), position_unit, positions),
+        SignalSpec::new(format!("{}.velocity", joint.name), velocity_unit, velocities),
+    ]
 }
 
 /// Names of the machines the twin knows.

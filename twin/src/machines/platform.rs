@@ -23,6 +23,8 @@ use super::{link, process_params, Machine, MachineError};
 use crate::mechanism::{wrap_angle, Mechanism, Pose2};
 use crate::physics::{Load, MechanismState, NO_DAMPING, NO_STIFFNESS};
 use controllers::{Actuator, EffortKind};
+use crate::scene::{colors, Bounds, Drawing, Marker, MarkerSource, Scene};
+use controllers::{SignalSpec, Unit};
 use models::platform_path::{Path, PathSpec};
 use models::tyre::{static_normal_loads, TyreParams};
 use motor::{Motor, MotorParams};
@@ -239,38 +241,68 @@ impl Machine for Platform {
             .to_vec()
     }
 
-    fn signal_names(&self) -> Vec<String> {
-        let mut names: Vec<String> = self
+    fn signals(&self) -> Vec<SignalSpec> {
+        let mut specs: Vec<SignalSpec> = self
             .actuators
             .iter()
             .flat_map(|a| {
                 [
-                    format!("{}.position", a.joint),
-                    format!("{}.current", a.joint),
+                    SignalSpec::new(
+                        format!("{}.position", a.joint),
+                        Unit::DegreeWrapped,
+                        "wheel angles",
+                    ),
+                    SignalSpec::new(
+                        format!("{}.current", a.joint),
+                        Unit::Ampere,
+                        format!("{} current", a.joint),
+                    ),
                 ]
             })
             .collect();
-        names.extend(["path_x", "path_y", "path_vx", "path_vy", "path_heading"].map(String::from));
-        names
+        specs.extend([
+            SignalSpec::new("path_x", Unit::Metre, "point h x"),
+            SignalSpec::new("path_y", Unit::Metre, "point h y"),
+            SignalSpec::new("path_vx", Unit::MillimetrePerSecond, "planned velocity"),
+            SignalSpec::new("path_vy", Unit::MillimetrePerSecond, "planned velocity"),
+            SignalSpec::new("path_heading", Unit::Degree, "heading"),
+        ]);
+        specs
     }
 
-    fn diagnostic_names(&self) -> Vec<String> {
-        let mut names: Vec<String> = [
-            "pose.x_h",
-            "pose.y_h",
-            "pose.heading",
-            "desired_heading",
-            "heading_error",
-            "path_error",
-        ]
-        .map(String::from)
-        .to_vec();
+    fn diagnostics(&self) -> Vec<SignalSpec> {
+        let mut specs = vec![
+            SignalSpec::new("pose.x_h", Unit::Metre, "point h x"),
+            SignalSpec::new("pose.y_h", Unit::Metre, "point h y"),
+            SignalSpec::new("pose.heading", Unit::Degree, "heading"),
+            SignalSpec::new("desired_heading", Unit::Degree, "heading"),
+            SignalSpec::new("heading_error", Unit::Degree, "heading error"),
+            SignalSpec::new("path_error", Unit::Millimetre, "tracking error"),
+        ];
         for wheel in &self.wheels {
-            for quantity in ["longitudinal_slip", "lateral_slip", "spin_rate"] {
-                names.push(format!("{}.{quantity}", wheel.name));
-            }
+            specs.extend([
+                SignalSpec::new(
+                    format!("{}.longitudinal_slip", wheel.name),
+                    Unit::Dimensionless,
+                    "longitudinal slip",
+                ),
+                SignalSpec::new(
+                    format!("{}.lateral_slip", wheel.name),
+                    Unit::Dimensionless,
+                    "lateral slip",
+                ),
+                SignalSpec::new(
+                    format!("{}.spin_rate", wheel.name),
+                    Unit::Rpm,
+                    "wheel spin rates",
+                ),
+            ]);
         }
-        names
+        specs
+    }
+
+    fn scene(&self) -> Scene {
+        scene(&self.path)
     }
 
     fn extra_actuators(&self) -> Vec<Actuator> {
@@ -426,4 +458,39 @@ impl Machine for Platform {
         metrics.extend(friction);
         metrics
     }
+}/// The floor around the planned path of point h (drawn whole), with point h's planned, true and
+/// odometry positions traced as the run goes.
+fn scene(path: &Path) -> Scene {
+    const PATH_SAMPLES: usize = 400;
+    let planned: Vec<[f64; 2]> = (0..=PATH_SAMPLES)
+        .map(|i| path.at(path.length() * i as f64 / PATH_SAMPLES as f64).position)
+        .collect();
+    let start = planned[0];
+    let bounds = Bounds::around(planned.iter().copied(), 0.15).unwrap_or(Bounds {
+        x: [start[0] - 1.0, start[0] + 1.0],
+        y: [start[1] - 1.0, start[1] + 1.0],
+    });
+    let marker = |name: &str, label: &str, color, x: &str, y: &str| Marker {
+        name: name.into(),
+        color,
+        label: label.into(),
+        source: MarkerSource::at(x, y),
+        trace: true,
+    };
+    Scene {
+        title: "floor (m, y up): planned, true and odometry paths of point h".into(),
+        bounds,
+        drawings: vec![Drawing {
+            name: "planned_path".into(),
+            color: colors::TARGET,
+            lines: vec![planned],
+            label: "planned path".into(),
+        }],
+        markers: vec![
+            marker("true_h", "true h", colors::TRUE, "pose.x_h", "pose.y_h"),
+            marker("odometry_h", "odometry h", colors::ESTIMATE, "odometry.x_h", "odometry.y_h"),
+        ],
+    }
 }
+
+

@@ -4,9 +4,11 @@
 
 mod cutting;
 
-use super::{joint, link, process_params, Machine, MachineError};
-use crate::mechanism::Mechanism;
+use super::{default_joint_signals, joint, link, process_params, Machine, MachineError};
+use crate::mechanism::{Joint, Mechanism};
 use crate::physics::{Load, MechanismState, NO_DAMPING, NO_STIFFNESS};
+use crate::scene::{colors, Bounds, Drawing, Marker, MarkerSource, Scene};
+use controllers::{SignalSpec, Unit};
 use cutting::{Cutting, Workpiece};
 use models::whitworth::Geometry;
 use serde::Deserialize;
@@ -87,21 +89,55 @@ impl Whitworth {
 }
 
 impl Machine for Whitworth {
-    fn signal_names(&self) -> Vec<String> {
-        ["crank_angle", "ram_position", "ram_velocity"]
-            .map(String::from)
-            .to_vec()
+    fn signals(&self) -> Vec<SignalSpec> {
+        vec![
+            SignalSpec::new("crank_angle", Unit::DegreeWrapped, "crank angle"),
+            SignalSpec::new("ram_position", Unit::Millimetre, "ram position"),
+            SignalSpec::new("ram_velocity", Unit::MetrePerSecond, "ram velocity"),
+        ]
     }
 
-    fn diagnostic_names(&self) -> Vec<String> {
-        let mut names = vec![
-            "ram_model_error".to_string(),
-            "ram_velocity_model_error".to_string(),
+    fn diagnostics(&self) -> Vec<SignalSpec> {
+        let mut specs = vec![
+            SignalSpec::new("ram_model_error", Unit::Micrometre, "ram model error"),
+            SignalSpec::new(
+                "ram_velocity_model_error",
+                Unit::MillimetrePerSecond,
+                "ram velocity model error",
+            ),
         ];
         if self.cutting.is_some() {
-            names.push("contact_force".into());
+            specs.push(SignalSpec::new(
+                "contact_force",
+                Unit::Newton,
+                "contact force",
+            ));
         }
-        names
+        specs
+    }
+
+    fn reference(&self) -> Option<[SignalSpec; 3]> {
+        Some([
+            SignalSpec::new("reference", Unit::Millimetre, "ram position"),
+            SignalSpec::new("reference_rate", Unit::MetrePerSecond, "ram velocity"),
+            SignalSpec::new(
+                "reference_acceleration",
+                Unit::MetrePerSecondSquared,
+                "ram acceleration",
+            ),
+        ])
+    }
+
+    fn joint_signals(&self, joint: &Joint) -> [SignalSpec; 2] {
+        let [position, velocity] = default_joint_signals(joint);
+        if joint.name == "crank" {
+            return [position, SignalSpec::new("crank.velocity", Unit::Rpm, "crank speed")];
+        }
+        [position, velocity]
+    }
+
+    fn scene(&self) -> Scene {
+        scene(&self.geometry, self.cutting.as_ref().map(Cutting::zone))
     }
 
     fn measure(
@@ -179,5 +215,58 @@ impl Machine for Whitworth {
             metrics.extend(cutting.metrics());
         }
         metrics
+    }
+}
+
+/// The shaper's view: framed on everything the linkage sweeps in a crank turn (crank circle,
+/// slotted link, ram stroke), with the workpiece's cut zone beside the ram guide and the tool at
+/// the ram.
+fn scene(geometry: &Geometry, zone: Option<[f64; 2]>) -> Scene {
+    const TURN_SAMPLES: usize = 144;
+    /// How far the slotted link's outline reaches from its pivot, m (the URDF's).
+    const SLOTTED_LINK_REACH: f64 = 0.7;
+    let pivot = geometry.slot_pivot;
+    let mut swept = Vec::with_capacity(3 * TURN_SAMPLES);
+    for i in 0..TURN_SAMPLES {
+        let angle = std::f64::consts::TAU * i as f64 / TURN_SAMPLES as f64;
+        let pin = [geometry.crank_length * angle.cos(), geometry.crank_length * angle.sin()];
+        let (dx, dy) = (pin[0] - pivot[0], pin[1] - pivot[1]);
+        let reach = SLOTTED_LINK_REACH / dx.hypot(dy).max(1e-12);
+        swept.push(pin);
+        swept.push([pivot[0] + reach * dx, pivot[1] + reach * dy]);
+        swept.push([geometry.guide_x, geometry.ram_position(angle)]);
+    }
+    let bounds = Bounds::around(swept, 0.06).unwrap_or(Bounds {
+        x: [-1.0, 1.0],
+        y: [-1.0, 1.0],
+    });
+    let drawings = zone
+        .map(|[entry, exit]| {
+            let (x0, x1) = (geometry.guide_x + 0.03, geometry.guide_x + 0.12);
+            let (y0, y1) = (entry.min(exit), entry.max(exit));
+            vec![Drawing {
+                name: "workpiece".into(),
+                color: colors::WORKPIECE,
+                lines: vec![vec![[x0, y0], [x1, y0], [x1, y1], [x0, y1], [x0, y0]]],
+                label: "workpiece (cut zone)".into(),
+            }]
+        })
+        .unwrap_or_default();
+    Scene {
+        title: "shaper (m, y up)".into(),
+        bounds,
+        drawings,
+        markers: vec![Marker {
+            name: "tool".into(),
+            color: colors::TOOL,
+            label: "tool".into(),
+            source: MarkerSource {
+                x: None,
+                y: Some("ram_position".into()),
+                scale: 1.0,
+                origin: [geometry.guide_x, 0.0],
+            },
+            trace: false,
+        }],
     }
 }

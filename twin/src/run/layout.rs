@@ -3,6 +3,7 @@
 
 use crate::mechanism::Mechanism;
 use crate::physics::MechanismState;
+use controllers::{SignalSpec, Unit};
 use std::ops::Range;
 
 /// The names of everything a run carries per step, fixed before the first step. Every slice in
@@ -22,6 +23,8 @@ pub struct SignalLayout {
     /// Model checks recorded beside the signals: the machine's, one `loop_gap/<loop>` per loop
     /// closure, and `mechanical_energy` last.
     pub diagnostics: Vec<String>,
+    /// How each of these is shown (unit and plot), list by list.
+    pub specs: LayoutSpecs,
     /// Tree joint index of each movable joint.
     movable: Vec<usize>,
     /// Tree joint index of each sensed joint (its position and velocity lead `signals`).
@@ -33,48 +36,77 @@ pub struct SignalLayout {
     loops: usize,
 }
 
+/// The units and plots of a [`SignalLayout`]'s values, parallel to its name lists.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct LayoutSpecs {
+    /// Per movable joint: its position and velocity.
+    pub joints: Vec<[SignalSpec; 2]>,
+    pub signals: Vec<SignalSpec>,
+    /// Per actuator: the unit of the effort commanded and of the effort applied.
+    pub efforts: Vec<[Unit; 2]>,
+    pub internals: Vec<SignalSpec>,
+    pub diagnostics: Vec<SignalSpec>,
+}
+
 /// The parts of the layout the twin knows before it binds a controller.
 pub(super) struct LayoutParts {
     pub movable: Vec<usize>,
     pub sensed: Vec<usize>,
-    pub machine_signals: Vec<String>,
-    pub has_reference: bool,
+    /// Per movable joint, its position and velocity specs.
+    pub joint_specs: Vec<[SignalSpec; 2]>,
+    pub machine_signals: Vec<SignalSpec>,
+    /// The units and plots of the reference triple, when the scenario has one.
+    pub reference: Option<[SignalSpec; 3]>,
     pub actuators: Vec<String>,
-    pub machine_diagnostics: Vec<String>,
+    /// Per actuator: commanded and applied effort units.
+    pub effort_units: Vec<[Unit; 2]>,
+    pub machine_diagnostics: Vec<SignalSpec>,
 }
 
 impl SignalLayout {
     pub(super) fn new(mechanism: &Mechanism, parts: LayoutParts) -> Self {
-        let name = |j: usize| mechanism.joints[j].name.clone();
-        let mut signals = Vec::new();
-        for &j in &parts.sensed {
-            signals.push(format!("{}.position", name(j)));
-            signals.push(format!("{}.velocity", name(j)));
-        }
-        let machine_start = signals.len();
-        signals.extend(parts.machine_signals);
-        let machine_signals = machine_start..signals.len();
-        let reference = parts.has_reference.then_some(signals.len());
-        if parts.has_reference {
-            signals.extend(
-                ["reference", "reference_rate", "reference_acceleration"].map(String::from),
-            );
-        }
+        let joint_spec = |j: usize| {
+            let k = parts.movable.iter().position(|&m| m == j);
+            k.map(|k| parts.joint_specs[k].clone())
+        };
+        let mut signal_specs: Vec<SignalSpec> = parts
+            .sensed
+            .iter()
+            .filter_map(|&j| joint_spec(j))
+            .flatten()
+            .collect();
+        let machine_start = signal_specs.len();
+        signal_specs.extend(parts.machine_signals);
+        let machine_signals = machine_start..signal_specs.len();
+        let reference = parts.reference.is_some().then_some(signal_specs.len());
+        signal_specs.extend(parts.reference.into_iter().flatten());
         let machine_diagnostics = parts.machine_diagnostics.len();
-        let mut diagnostics = parts.machine_diagnostics;
-        diagnostics.extend(
-            mechanism
-                .loops
-                .iter()
-                .map(|l| format!("loop_gap/{}", l.name)),
-        );
-        diagnostics.push("mechanical_energy".into());
+        let mut diagnostic_specs = parts.machine_diagnostics;
+        diagnostic_specs.extend(mechanism.loops.iter().map(|l| {
+            SignalSpec::new(format!("loop_gap/{}", l.name), Unit::Micrometre, "loop gaps")
+        }));
+        diagnostic_specs.push(SignalSpec::new(
+            "mechanical_energy",
+            Unit::Joule,
+            "mechanical energy",
+        ));
         Self {
-            joints: parts.movable.iter().map(|&j| name(j)).collect(),
-            signals,
+            joints: parts
+                .movable
+                .iter()
+                .map(|&j| mechanism.joints[j].name.clone())
+                .collect(),
+            signals: controllers::signal::names(&signal_specs),
             actuators: parts.actuators,
             internals: Vec::new(),
-            diagnostics,
+            diagnostics: controllers::signal::names(&diagnostic_specs),
+            specs: LayoutSpecs {
+                joints: parts.joint_specs,
+                signals: signal_specs,
+                efforts: parts.effort_units,
+                internals: Vec::new(),
+                diagnostics: diagnostic_specs,
+            },
             movable: parts.movable,
             sensed: parts.sensed,
             machine_signals,
@@ -82,6 +114,12 @@ impl SignalLayout {
             machine_diagnostics,
             loops: mechanism.loops.len(),
         }
+    }
+
+    /// Sets the controller's internals (known once it is bound).
+    pub(super) fn set_internals(&mut self, specs: Vec<SignalSpec>) {
+        self.internals = controllers::signal::names(&specs);
+        self.specs.internals = specs;
     }
 
     /// Index of a plant signal by name.

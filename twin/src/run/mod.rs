@@ -215,7 +215,8 @@ impl Twin {
         let actuated = mechanism.actuated_joints();
         let mut actuators = joint_actuators(&mechanism, &actuated);
         actuators.extend(machine.extra_actuators());
-        let mut layout = signal_layout(&mechanism, machine.as_ref(), scenario, &actuators);
+        let mut layout =
+            signal_layout(&mechanism, machine.as_ref(), scenario, &actuators).map_err(binding)?;
         let plant = PlantInterface {
             machine: scenario.machine.clone(),
             signals: layout.signals.clone(),
@@ -228,7 +229,7 @@ impl Twin {
                 context: format!("{} (URDF {})", loaded.source, loaded.urdf_source),
                 source,
             })?;
-        layout.internals = controller.internal_names();
+        layout.set_internals(controller.internals());
         let evaluators = scenario
             .metrics
             .iter()
@@ -409,13 +410,14 @@ fn observer_error(error: ObserverError) -> TwinError {
 }
 
 /// The run's layout: the movable joints, those the controller measures (the machine may hide
-/// some, e.g. a planar base), the machine's signals and diagnostics, the actuators.
+/// some, e.g. a planar base), the machine's signals and diagnostics, the actuators. A
+/// `[reference]` for a machine with nothing to track is an error.
 fn signal_layout(
     mechanism: &Mechanism,
     machine: &dyn Machine,
     scenario: &crate::scenario::Scenario,
     actuators: &[Actuator],
-) -> SignalLayout {
+) -> Result<SignalLayout, String> {
     let movable: Vec<usize> = (0..mechanism.joints.len())
         .filter(|&j| mechanism.joints[j].motion.is_movable())
         .collect();
@@ -425,17 +427,35 @@ fn signal_layout(
         .copied()
         .filter(|&j| !hidden.contains(&mechanism.joints[j].name))
         .collect();
-    SignalLayout::new(
+    let reference = match (&scenario.reference, machine.reference()) {
+        (None, _) => None,
+        (Some(_), Some(specs)) => Some(specs),
+        (Some(_), None) => {
+            return Err(format!(
+                "[reference]: machine `{}` has no output to track; remove the table",
+                scenario.machine
+            ))
+        }
+    };
+    Ok(SignalLayout::new(
         mechanism,
         LayoutParts {
+            joint_specs: movable
+                .iter()
+                .map(|&j| machine.joint_signals(&mechanism.joints[j]))
+                .collect(),
             movable,
             sensed,
-            machine_signals: machine.signal_names(),
-            has_reference: scenario.reference.is_some(),
+            machine_signals: machine.signals(),
+            reference,
             actuators: actuators.iter().map(|a| a.joint.clone()).collect(),
-            machine_diagnostics: machine.diagnostic_names(),
+            effort_units: actuators
+                .iter()
+                .map(|a| [machine.command_unit(a), machines::effort_unit(a.kind)])
+                .collect(),
+            machine_diagnostics: machine.diagnostics(),
         },
-    )
+    ))
 }
 
 /// Per plant signal, its sensor if the scenario gives one; an unknown signal is an error.

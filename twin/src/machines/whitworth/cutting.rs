@@ -103,6 +103,11 @@ impl Cutting {
     }
 
     /// Eq (40): the vertical force on the ram at height y moving at ẏ, N (+ up).
+    /// The ram positions where the tool enters and leaves the workpiece, m.
+    pub fn zone(&self) -> [f64; 2] {
+        [self.entry, self.exit]
+    }
+
     pub fn contact_force(&self, y: f64, ram_velocity: f64) -> f64 {
         if ram_velocity * self.direction > 0.0 && self.on_workpiece(y) {
             -self.direction * self.workpiece.contact_force
