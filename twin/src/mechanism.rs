@@ -66,6 +66,18 @@ pub struct Shape {
     pub color: Option<[f32; 4]>,
 }
 
+impl Shape {
+    /// Points bounding the outline, in the link's frame: a rectangle's corners, a circle's
+    /// bounding square's.
+    pub fn extent(&self) -> [[f64; 2]; 4] {
+        let (hx, hy) = match self.outline {
+            Outline::Rectangle { width, height } => (width / 2.0, height / 2.0),
+            Outline::Circle { radius } => (radius, radius),
+        };
+        [[-hx, -hy], [hx, -hy], [hx, hy], [-hx, hy]].map(|[x, y]| self.origin.apply(x, y))
+    }
+}
+
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Outline {
     /// A URDF box seen from above: full sizes along the shape's x and y.

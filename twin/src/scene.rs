@@ -35,6 +35,14 @@ impl Bounds {
         })
     }
 
+    /// The smallest rectangle holding both.
+    pub fn union(&self, other: &Bounds) -> Bounds {
+        Bounds {
+            x: [self.x[0].min(other.x[0]), self.x[1].max(other.x[1])],
+            y: [self.y[0].min(other.y[0]), self.y[1].max(other.y[1])],
+        }
+    }
+
     pub fn width(&self) -> f64 {
         self.x[1] - self.x[0]
     }
@@ -95,7 +103,8 @@ pub struct Marker {
 pub struct Scene {
     /// The view's title: what it shows (and any magnification).
     pub title: String,
-    /// The fixed frame of the view, margins included.
+    /// The fixed frame of the view, margins included; the twin widens it to hold the links at
+    /// their URDF pose and the drawings.
     pub bounds: Bounds,
     pub drawings: Vec<Drawing>,
     pub markers: Vec<Marker>,

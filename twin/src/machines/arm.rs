@@ -475,12 +475,10 @@ impl Machine for Arm {
     }
 }
 
-/// The arm's reach around its base with the part: its finished contour, the cast stock's outline
+/// The part: its finished contour, the cast stock's outline
 /// (the contour offset by the stock depth, on the right of travel) and the tool point's trace.
 fn scene(contour: &ContourPath, stock: &Stock) -> Scene {
     const SAMPLES: usize = 300;
-    /// The arm's reach from its base, m (upper arm + forearm + hand).
-    const REACH: f64 = 0.88;
     let mut finished = Vec::with_capacity(SAMPLES + 1);
     let mut outline = Vec::with_capacity(SAMPLES + 1);
     for i in 0..=SAMPLES {
@@ -490,9 +488,8 @@ fn scene(contour: &ContourPath, stock: &Stock) -> Scene {
         finished.push([x, y]);
         outline.push([x + ty * depth, y - tx * depth]);
     }
-    let corners = [[-REACH, 0.0], [REACH, 0.0], [0.0, REACH], [0.0, -0.2]];
-    let frame = corners.into_iter().chain(finished.iter().copied());
-    let bounds = Bounds::around(frame, 0.03).unwrap_or(Bounds {
+    // The part; the twin adds the arm at its URDF pose, stretched out.
+    let bounds = Bounds::around(outline.iter().copied(), 0.05).unwrap_or(Bounds {
         x: [-1.0, 1.0],
         y: [-1.0, 1.0],
     });

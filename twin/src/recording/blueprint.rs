@@ -1,53 +1,303 @@
-//! The default viewer layout of a recording.
+//! The default viewer layout of a recording, written as Rerun blueprint entities. The Rust SDK's
+//! blueprint builder (0.36) has no view properties, so this writes the containers, views and the
+//! properties we need (the mechanism view's fixed bounds, legend corners) itself, with view ids
+//! numbered in order: the same recording gets the same layout.
 
-use rerun::blueprint::{
-    Blueprint, ContainerLike, Grid, Horizontal, Spatial2DView, Tabs, TextDocumentView, TextLogView,
-    TimePanel, TimeSeriesView, Vertical,
+use rerun::external::re_log_types::{BlueprintActivationCommand, LogMsg, StoreId};
+use rerun::external::re_sdk_types::blueprint::archetypes::{
+    ContainerBlueprint, PanelBlueprint, PlotLegend, TimePanelBlueprint, ViewBlueprint, ViewContents,
+    ViewportBlueprint, VisualBounds2D,
 };
-use rerun::EntityPath;
+use rerun::external::re_sdk_types::blueprint::components::{
+    ActiveTab, AutoLayout, AutoViews, ColumnShare, ContainerKind, Corner2D, GridColumns,
+    IncludedContent, PanelState, QueryExpression, RootContainer, RowShare, ViewClass,
+};
+use rerun::external::re_sdk_types::components::Name;
+use rerun::external::re_sdk_types::datatypes::{Bool, Float32, Range2D, UInt32};
+use rerun::{AsComponents, RecordingStream, RecordingStreamBuilder};
 
-use super::{EVENTS, MECHANISM, SCENARIO, SIM_TIME};
+use super::{PlotSpec, PlotTab, EVENTS, MECHANISM, SCENARIO, SIM_TIME, SUMMARY};
+use crate::scene::Bounds;
 
-/// Up to this many time-series views are stacked in one column; more go into a two-column grid.
-const MAX_STACKED_PLOTS: usize = 4;
+/// Up to this many plots are stacked in one column of a tab; more go into a two-column grid.
+const MAX_STACKED_PLOTS: usize = 3;
 
-/// The layout: on the left the mechanism (a 2D view over `/mechanism`, whose y-up transform sits on
-/// `/mechanism` itself, hence the view's origin at `/`) above tabs with the event log and the
-/// scenario; on the right one time-series plot per series group. The time panel starts on
-/// `sim_time`.
-pub(super) fn default_blueprint(series: &[(EntityPath, String)]) -> Blueprint {
-    let mechanism = Spatial2DView::new("mechanism")
-        .with_origin("/")
-        .with_contents([format!("+ /{MECHANISM}/**")]);
-    let events = TextLogView::new("events").with_origin(format!("/{EVENTS}"));
-    let scenario = TextDocumentView::new("scenario").with_origin(format!("/{SCENARIO}"));
-    let left = Vertical::new([
-        mechanism.into(),
-        Tabs::new([events.into(), scenario.into()]).into(),
-    ])
-    .with_row_shares([3.0, 1.0]);
+/// A container or a view of the layout.
+enum Node {
+    Container {
+        kind: ContainerKind,
+        name: String,
+        children: Vec<Node>,
+        shares: Vec<f32>,
+    },
+    View {
+        class: &'static str,
+        name: String,
+        origin: String,
+        contents: Vec<String>,
+        properties: Vec<(&'static str, Box<dyn AsComponents>)>,
+    },
+}
 
-    let plots: Vec<ContainerLike> = series
+/// The layout: on the left the mechanism (fixed to `bounds`, in machine coordinates) above tabs
+/// with the events, the run's summary and the scenario; on the right one tab per kind of plot
+/// (tracking first), each plot one unit.
+fn layout(title: &str, bounds: Option<Bounds>, plots: &[(String, &PlotSpec)]) -> Node {
+    let mut mechanism_properties: Vec<(&'static str, Box<dyn AsComponents>)> = Vec::new();
+    if let Some(b) = bounds {
+        // The view is y-down; `/mechanism` flips y, so the machine's y range is negated here.
+        let range = Range2D {
+            x_range: b.x.into(),
+            y_range: [-b.y[1], -b.y[0]].into(),
+        };
+        mechanism_properties.push(("VisualBounds2D", Box::new(VisualBounds2D::new(range))));
+    }
+    let mechanism = view("2D", title, "/", vec![format!("+ /{MECHANISM}/**")], mechanism_properties);
+    let text = |class, name: &str, entity: &str| view(class, name, &format!("/{entity}"), vec![], vec![]);
+    let left = container(
+        ContainerKind::Vertical,
+        "",
+        vec![
+            mechanism,
+            container(
+                ContainerKind::Tabs,
+                "",
+                vec![
+                    text("TextLog", "events", EVENTS),
+                    text("TextDocument", "summary", SUMMARY),
+                    text("TextDocument", "scenario", SCENARIO),
+                ],
+                vec![],
+            ),
+        ],
+        vec![3.0, 1.0],
+    );
+    let tabs: Vec<Node> = PlotTab::ALL
         .iter()
-        .map(|(path, title)| {
-            TimeSeriesView::new(title.clone())
-                .with_origin(path.clone())
-                .into()
+        .filter_map(|tab| plot_tab(*tab, plots))
+        .collect();
+    if tabs.is_empty() {
+        return left;
+    }
+    container(
+        ContainerKind::Horizontal,
+        "",
+        vec![left, container(ContainerKind::Tabs, "", tabs, vec![])],
+        vec![1.0, 1.3],
+    )
+}
+
+/// The plots of one tab, stacked or in a two-column grid, or `None` when it has none.
+fn plot_tab(tab: PlotTab, plots: &[(String, &PlotSpec)]) -> Option<Node> {
+    let views: Vec<Node> = plots
+        .iter()
+        .filter(|(_, plot)| plot.tab == tab)
+        .map(|(entity, plot)| {
+            // One series: the title names it, and a legend would only cover data.
+            let legend = PlotLegend::new()
+                .with_corner(Corner2D::LeftTop)
+                .with_visible(plot.series.len() > 1);
+            view(
+                "TimeSeries",
+                &plot.title(),
+                &format!("/{entity}"),
+                vec![],
+                vec![("PlotLegend", Box::new(legend))],
+            )
         })
         .collect();
-    let root: ContainerLike = match plots.len() {
-        0 => left.into(),
-        n => {
-            let right: ContainerLike = if n <= MAX_STACKED_PLOTS {
-                Vertical::new(plots).into()
-            } else {
-                Grid::new(plots).with_grid_columns(2).into()
-            };
-            Horizontal::new([left.into(), right])
-                .with_column_shares([1.0, 1.0])
-                .into()
-        }
+    if views.is_empty() {
+        return None;
+    }
+    let kind = if views.len() <= MAX_STACKED_PLOTS {
+        ContainerKind::Vertical
+    } else {
+        ContainerKind::Grid
     };
+    Some(container(kind, tab.label(), views, vec![]))
+}
 
-    Blueprint::new(root).with_time_panel(TimePanel::new().with_timeline(SIM_TIME))
+fn container(kind: ContainerKind, name: &str, children: Vec<Node>, shares: Vec<f32>) -> Node {
+    Node::Container {
+        kind,
+        name: name.to_owned(),
+        children,
+        shares,
+    }
+}
+
+fn view(
+    class: &'static str,
+    name: &str,
+    origin: &str,
+    contents: Vec<String>,
+    properties: Vec<(&'static str, Box<dyn AsComponents>)>,
+) -> Node {
+    let contents = if contents.is_empty() {
+        vec!["$origin/**".to_owned()]
+    } else {
+        contents
+    };
+    Node::View {
+        class,
+        name: name.to_owned(),
+        origin: origin.to_owned(),
+        contents,
+        properties,
+    }
+}
+
+/// Numbers the layout's containers and views in order (deterministic ids).
+struct Writer<'a> {
+    stream: &'a RecordingStream,
+    next_id: u128,
+}
+
+impl Writer<'_> {
+    /// Logs `node` and its children; returns its blueprint path.
+    fn write(&mut self, node: &Node) -> rerun::RecordingStreamResult<String> {
+        self.next_id += 1;
+        let id = uuid_text(self.next_id);
+        match node {
+            Node::Container {
+                kind,
+                name,
+                children,
+                shares,
+            } => {
+                let mut paths = Vec::with_capacity(children.len());
+                for child in children {
+                    paths.push(self.write(child)?);
+                }
+                let path = format!("container/{id}");
+                let mut arch = ContainerBlueprint::new(*kind)
+                    .with_contents(paths.iter().map(|p| IncludedContent(p.as_str().into())));
+                if !name.is_empty() {
+                    arch = arch.with_display_name(Name(name.as_str().into()));
+                }
+                arch = match kind {
+                    ContainerKind::Horizontal if !shares.is_empty() => {
+                        arch.with_col_shares(shares.iter().map(|&s| ColumnShare(Float32(s))))
+                    }
+                    ContainerKind::Vertical if !shares.is_empty() => {
+                        arch.with_row_shares(shares.iter().map(|&s| RowShare(Float32(s))))
+                    }
+                    ContainerKind::Grid => arch.with_grid_columns(GridColumns(UInt32(2))),
+                    ContainerKind::Tabs if !paths.is_empty() => {
+                        arch.with_active_tab(ActiveTab(paths[0].as_str().into()))
+                    }
+                    _ => arch,
+                };
+                self.stream.log(path.as_str(), &arch)?;
+                Ok(path)
+            }
+            Node::View {
+                class,
+                name,
+                origin,
+                contents,
+                properties,
+            } => {
+                let path = format!("view/{id}");
+                self.stream.log(
+                    format!("{path}/ViewContents"),
+                    &ViewContents::new(contents.iter().map(|q| QueryExpression(q.as_str().into()))),
+                )?;
+                let arch = ViewBlueprint::new(ViewClass((*class).into()))
+                    .with_display_name(Name(name.as_str().into()))
+                    .with_space_origin(origin.as_str());
+                self.stream.log(path.as_str(), &arch)?;
+                for (property, archetype) in properties {
+                    self.stream
+                        .log(format!("{path}/{property}"), archetype.as_ref())?;
+                }
+                Ok(path)
+            }
+        }
+    }
+}
+
+/// A UUID's text form for the layout's `n`-th element.
+fn uuid_text(n: u128) -> String {
+    let hex = format!("{n:032x}");
+    format!(
+        "{}-{}-{}-{}-{}",
+        &hex[0..8],
+        &hex[8..12],
+        &hex[12..16],
+        &hex[16..20],
+        &hex[20..32]
+    )
+}
+
+/// Sends the default layout to `stream`, made active and default for its application.
+pub(super) fn send_default(
+    stream: &RecordingStream,
+    app: &rerun::ApplicationId,
+    title: &str,
+    bounds: Option<Bounds>,
+    plots: &[(String, &PlotSpec)],
+) -> Result<(), String> {
+    let error = |err: rerun::RecordingStreamError| super::error_chain(&err);
+    let (blueprint, storage) = RecordingStreamBuilder::new(app.clone())
+        .recording_id(format!("{app}-blueprint"))
+        .blueprint()
+        .memory()
+        .map_err(error)?;
+    blueprint.set_time_sequence("blueprint", 0);
+    let root = layout(title, bounds, plots);
+    let root = match root {
+        Node::View { .. } => container(ContainerKind::Tabs, "", vec![root], vec![]),
+        container => container,
+    };
+    let root_path = Writer {
+        stream: &blueprint,
+        next_id: 0,
+    }
+    .write(&root)
+    .map_err(error)?;
+    // The root is numbered first.
+    debug_assert_eq!(root_path, format!("container/{}", uuid_text(1)));
+    let root_uuid = rerun::external::re_sdk_types::datatypes::Uuid::from(1_u128.to_be_bytes());
+    blueprint
+        .log(
+            "viewport",
+            &ViewportBlueprint::new()
+                .with_root_container(RootContainer(root_uuid.into()))
+                .with_auto_layout(AutoLayout(Bool(false)))
+                .with_auto_views(AutoViews(Bool(false))),
+        )
+        .map_err(error)?;
+    // The side panels are folded away: the views get the window.
+    for panel in ["blueprint_panel", "selection_panel"] {
+        blueprint
+            .log(panel, &PanelBlueprint::new().with_state(PanelState::Collapsed))
+            .map_err(error)?;
+    }
+    blueprint
+        .log(
+            "time_panel",
+            &TimePanelBlueprint::new()
+                .with_state(PanelState::Collapsed)
+                .with_timeline(rerun::external::re_sdk_types::blueprint::components::TimelineName(
+                    SIM_TIME.into(),
+                )),
+        )
+        .map_err(error)?;
+    blueprint
+        .flush_blocking()
+        .map_err(|err| super::error_chain(&err))?;
+    let messages: Vec<LogMsg> = storage.take();
+    let Some(blueprint_id) = messages.first().map(|m| m.store_id().clone()) else {
+        return Err("the layout produced no messages".to_owned());
+    };
+    stream.send_blueprint(
+        messages,
+        BlueprintActivationCommand {
+            blueprint_id: blueprint_id as StoreId,
+            make_active: true,
+            make_default: true,
+        },
+    );
+    Ok(())
 }

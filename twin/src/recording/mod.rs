@@ -3,11 +3,16 @@
 //!
 //! Layout of a recording:
 //! - `/mechanism`: a static `Transform3D` flipping y (2D views are y-down; the mechanism is y-up);
-//! - `/mechanism/<link>`: the link's shapes as static 2D line strips in the link frame, and its
-//!   world pose as a temporal `Transform3D` (translation + rotation about z);
-//! - `/signals/<group>`: one multi-instance `Scalars` per series group, with static `SeriesLines`
-//!   naming the instances;
-//! - `/events`: a `TextLog`;
+//! - `/mechanism/<link>`: the link's shapes as static 2D line strips in the link frame, labelled
+//!   and coloured per link, and its world pose as a temporal `Transform3D`;
+//! - `/mechanism/scene/<drawing>`: what is machined (static line strips, machine coordinates);
+//! - `/mechanism/markers/<marker>` and `/mechanism/traces/<marker>`: points placed every sample
+//!   and the path they covered so far;
+//! - `/signals/<tab>/<plot>`: one multi-instance `Scalars` per plot, all of one display unit
+//!   ([`PlotSpec`]), with static `SeriesLines` naming (with the unit) and colouring the series;
+//! - `/events`: a `TextLog`, from the run's start (scenario, controller, parameters digest) to its
+//!   end (status, headline figures);
+//! - `/summary`: the run's summary as a static text document, written at the end;
 //! - `/scenario`: the scenario TOML as a static plain-text `TextDocument`.
 //!
 //! Every sample is on two timelines: `step` (sequence) and `sim_time` (duration). Samples are
@@ -33,8 +38,12 @@ pub use study::{write_study_plots, Histogram, Scatter, StudyPlots};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
-use rerun::archetypes::{LineStrips2D, Scalars, SeriesLines, TextDocument, TextLog, Transform3D};
-use rerun::components::{Color, MediaType, RotationAxisAngle, TextLogLevel, Translation3D};
+use rerun::archetypes::{
+    LineStrips2D, Points2D, Scalars, SeriesLines, TextDocument, TextLog, Transform3D,
+};
+use rerun::components::{
+    Color, MediaType, Position2D, Radius, RotationAxisAngle, TextLogLevel, Translation3D,
+};
 use rerun::external::arrow::array::{
     ArrayRef, FixedSizeListArray, Float32Array, Float64Array, StructArray,
 };
@@ -47,6 +56,8 @@ use rerun::{
 };
 
 use crate::mechanism::{wrap_angle, Outline, Pose2, Shape};
+use crate::scene::{Marker, Scene};
+use controllers::Unit;
 use live::LiveHandle;
 use writer::{FileState, FileWriter, PartFile};
 
@@ -54,6 +65,7 @@ const MECHANISM: &str = "mechanism";
 const SIGNALS: &str = "signals";
 const EVENTS: &str = "events";
 const SCENARIO: &str = "scenario";
+const SUMMARY: &str = "summary";
 /// Sequence timeline: the physics step index.
 const STEP: &str = "step";
 /// Duration timeline: simulated time.
@@ -65,15 +77,21 @@ const FLUSH_EVERY: usize = 4096;
 const MAX_BYTES_IN_FLIGHT: u64 = 32 << 20;
 /// Segments of the polygon drawing a circle.
 const CIRCLE_SEGMENTS: usize = 48;
-/// Colours of shapes without a material, per link.
-const PALETTE: [[u8; 3]; 6] = [
-    [31, 119, 180],
-    [255, 127, 14],
-    [44, 160, 44],
-    [214, 39, 40],
+/// Colours of the links, one each in turn (distinct on the viewer's dark background).
+const LINK_PALETTE: [[u8; 3]; 8] = [
+    [86, 180, 233],
+    [230, 159, 0],
+    [0, 158, 115],
+    [204, 121, 167],
+    [240, 228, 66],
+    [213, 94, 0],
     [148, 103, 189],
-    [140, 86, 75],
+    [0, 114, 178],
 ];
+/// A trace is sent every this many samples (and at the end).
+const TRACE_EVERY: usize = 1024;
+/// A trace keeps at most this many points: beyond, every other one is dropped.
+const MAX_TRACE_POINTS: usize = 4000;
 
 /// What a recording contains, fixed before the run starts.
 #[derive(Debug, Clone, Default)]
@@ -84,13 +102,117 @@ pub struct RecordingLayout {
     pub scenario_toml: String,
     /// Links to draw: name and shapes in the link frame (drawn as 2D line strips).
     pub links: Vec<(String, Vec<Shape>)>,
-    /// Time-series groups: each is a Rerun entity path under `signals/` (e.g. "joints/position",
-    /// "effort/commanded", "effort/applied", "task", "controller", "process") and the names of its
-    /// signals. The values passed to [`Recorder::push`] are these groups' signals concatenated in
-    /// this order.
-    pub series: Vec<SeriesGroup>,
+    /// The mechanism view's frame, drawings and markers; the positions of its markers are passed
+    /// to [`Recorder::push`] in the order of `scene.markers`.
+    pub scene: Option<Scene>,
+    /// The plots. Their series pick, by index, from the values passed to [`Recorder::push`].
+    pub plots: Vec<PlotSpec>,
     /// Also stream the run to a live viewer while it is written to the file.
     pub live: Option<LiveViewer>,
+}
+
+/// Which tab of the layout a plot is on.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum PlotTab {
+    /// A reference or a command on the plot of what it commands.
+    Tracking,
+    /// The machine's own signals.
+    Process,
+    /// Per actuator, the effort commanded and applied.
+    Efforts,
+    Joints,
+    Controller,
+    /// Model checks.
+    Diagnostics,
+}
+
+impl PlotTab {
+    /// The tabs in the order the layout shows them.
+    pub const ALL: [PlotTab; 6] = [
+        PlotTab::Tracking,
+        PlotTab::Process,
+        PlotTab::Efforts,
+        PlotTab::Joints,
+        PlotTab::Controller,
+        PlotTab::Diagnostics,
+    ];
+
+    pub fn label(self) -> &'static str {
+        match self {
+            PlotTab::Tracking => "tracking",
+            PlotTab::Process => "process",
+            PlotTab::Efforts => "efforts",
+            PlotTab::Joints => "joints",
+            PlotTab::Controller => "controller",
+            PlotTab::Diagnostics => "diagnostics",
+        }
+    }
+}
+
+/// What a series is to its plot; it sets the series' colour, the same in every plot.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum SeriesRole {
+    Reference,
+    /// The simulated (true) value.
+    True,
+    /// What the controller measures (through a sensor).
+    Measured,
+    /// An effort or set-point the controller commands.
+    Commanded,
+    /// The effort the joint receives.
+    Applied,
+    Other,
+}
+
+/// One series of a plot.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SeriesSpec {
+    /// Its name without the unit (the plot adds it).
+    pub name: String,
+    pub role: SeriesRole,
+    /// Index of its SI value in the values passed to [`Recorder::push`].
+    pub value: usize,
+}
+
+/// A plot: series of one display unit, on one tab.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PlotSpec {
+    pub tab: PlotTab,
+    /// What is plotted, without the unit.
+    pub name: String,
+    pub unit: Unit,
+    pub series: Vec<SeriesSpec>,
+}
+
+impl PlotSpec {
+    /// The plot's title: its name and unit, e.g. `ram position [mm]`.
+    pub fn title(&self) -> String {
+        format!("{} [{}]", self.name, self.unit.label())
+    }
+
+    /// A series' name as shown: with the plot's unit.
+    pub fn series_label(&self, series: &SeriesSpec) -> String {
+        format!("{} [{}]", series.name, self.unit.label())
+    }
+
+    /// The plot's entity under `signals/`: its tab and a path-safe form of its title.
+    pub fn entity(&self) -> String {
+        let slug: String = format!("{}_{}", self.name, unit_slug(self.unit))
+            .chars()
+            .map(|c| if c.is_ascii_alphanumeric() { c } else { '_' })
+            .collect();
+        format!("{SIGNALS}/{}/{slug}", self.tab.label())
+    }
+}
+
+/// An ASCII form of a unit for entity paths.
+fn unit_slug(unit: Unit) -> String {
+    unit.label()
+        .replace('µ', "u")
+        .replace('°', "deg")
+        .replace('²', "2")
+        .replace('·', "")
+        .replace('/', "_per_")
 }
 
 /// A Rerun viewer watching the run as it happens, besides the file.
@@ -102,12 +224,6 @@ pub enum LiveViewer {
     Spawn,
 }
 
-/// A set of signals plotted together, recorded as one multi-instance scalar entity.
-#[derive(Debug, Clone, Default)]
-pub struct SeriesGroup {
-    pub path: String,
-    pub names: Vec<String>,
-}
 
 #[derive(Debug, thiserror::Error)]
 pub enum RecordingError {
@@ -155,6 +271,9 @@ pub struct Recorder {
     flushes: u64,
     links: Vec<LinkPoses>,
     groups: Vec<Group>,
+    markers: Vec<MarkerBuffer>,
+    /// Samples pushed so far.
+    samples: usize,
     steps: Vec<i64>,
     times: Vec<f64>,
     /// The last finite time pushed, which stands in for a non-finite one.
@@ -172,11 +291,44 @@ struct LinkPoses {
     all_finite: bool,
 }
 
+/// A plot's buffered samples, in its display unit.
 struct Group {
     entity: EntityPath,
-    width: usize,
-    /// Row-major: `width` values per buffered sample.
+    unit: Unit,
+    /// Index of each series' value in the pushed values.
+    indices: Vec<usize>,
+    /// Row-major: one value per series and buffered sample.
     values: Vec<f64>,
+}
+
+/// A scene marker's buffered positions and the trace it has drawn so far.
+struct MarkerBuffer {
+    entity: EntityPath,
+    /// x, y per buffered sample (NaN when unknown; left out when sent).
+    positions: Vec<f32>,
+    /// The trace's entity, when the marker leaves one.
+    trace: Option<EntityPath>,
+    /// Every `stride`-th position of the run so far.
+    trace_points: Vec<[f32; 2]>,
+    stride: usize,
+}
+
+impl MarkerBuffer {
+    /// Adds the `sample`-th position to the buffer and, every `stride` samples, to the trace;
+    /// past [`MAX_TRACE_POINTS`] the trace keeps every other point and the stride doubles.
+    fn add(&mut self, sample: usize, [x, y]: [f64; 2]) {
+        let point = [x as f32, y as f32];
+        self.positions.extend_from_slice(&point);
+        if self.trace.is_none() || sample % self.stride != 0 || !point.iter().all(|v| v.is_finite()) {
+            return;
+        }
+        self.trace_points.push(point);
+        if self.trace_points.len() > MAX_TRACE_POINTS {
+            let kept = self.trace_points.iter().copied().step_by(2).collect();
+            self.trace_points = kept;
+            self.stride *= 2;
+        }
+    }
 }
 
 impl Recorder {
@@ -202,15 +354,10 @@ impl Recorder {
             }
             None => (None, None),
         };
-        let (links, groups) = buffers(layout);
-        let plots: Vec<(EntityPath, String)> = groups
-            .iter()
-            .zip(&layout.series)
-            .filter(|(group, _)| group.width > 0)
-            .map(|(group, series)| (group.entity.clone(), series.path.clone()))
-            .collect();
+        let (links, groups, markers) = buffers(layout);
         let sink: Box<dyn LogSink> = Box::new(FileWriter::new(file.clone(), feed));
-        let stream = RecordingStreamBuilder::new(application_id(&layout.app))
+        let app = application_id(&layout.app);
+        let stream = RecordingStreamBuilder::new(app.clone())
             .recording_name(layout.app.as_str())
             // Ignore the `RERUN` environment variable: the file is the run's product.
             .enabled(true)
@@ -219,10 +366,19 @@ impl Recorder {
                 max_bytes_in_flight: MAX_BYTES_IN_FLIGHT,
                 ..ChunkBatcherConfig::DEFAULT
             })
-            .with_blueprint(blueprint::default_blueprint(&plots))
             .set_sinks(vec![sink])
             .map_err(|err| create_error(error_chain(&err)))?;
-        log_layout(&stream, layout, &links, &groups).map_err(create_error)?;
+        let plots: Vec<(String, &PlotSpec)> = layout
+            .plots
+            .iter()
+            .filter(|plot| !plot.series.is_empty())
+            .map(|plot| (plot.entity(), plot))
+            .collect();
+        let scene = layout.scene.as_ref();
+        let title = scene.map_or("mechanism", |s| s.title.as_str());
+        blueprint::send_default(&stream, &app, title, scene.map(|s| s.bounds), &plots)
+            .map_err(create_error)?;
+        log_layout(&stream, layout).map_err(create_error)?;
         Ok(Recorder {
             path: path.to_path_buf(),
             part_path,
@@ -232,6 +388,8 @@ impl Recorder {
             flushes: 0,
             links,
             groups,
+            markers,
+            samples: 0,
             steps: Vec::with_capacity(FLUSH_EVERY),
             times: Vec::with_capacity(FLUSH_EVERY),
             last_time: 0.0,
@@ -245,10 +403,11 @@ impl Recorder {
     }
 
     /// Buffers one sample: step index, simulated time (s), every link's world pose (in the order of
-    /// `layout.links`) and the concatenated series values. Values are recorded as given (NaN and
-    /// infinities included); missing ones are recorded as NaN, extra ones ignored. A missing or
-    /// non-finite pose is left out, so the link stays drawn at its last finite pose. A non-finite
-    /// time is replaced by the last finite one.
+    /// `layout.links`), the SI values the plots' series pick from and the scene markers'
+    /// positions (in the order of `layout.scene.markers`). Values are recorded in their plot's
+    /// unit (NaN and infinities included); missing ones are recorded as NaN. A missing or
+    /// non-finite pose or marker position is left out, so it stays drawn at its last finite
+    /// place. A non-finite time is replaced by the last finite one.
     ///
     /// Fails once a write to the file has failed (with the OS's reason): the run should stop, as
     /// the rest of it could not be recorded.
@@ -258,6 +417,7 @@ impl Recorder {
         time: f64,
         link_poses: &[Pose2],
         values: &[f64],
+        markers: &[[f64; 2]],
     ) -> Result<(), RecordingError> {
         if time.is_finite() {
             self.last_time = time;
@@ -273,19 +433,23 @@ impl Recorder {
             link.translations.extend_from_slice(&[x, y, 0.0]);
             link.angles.push(angle);
         }
-        let mut offset = 0;
         for group in &mut self.groups {
-            let end = offset + group.width;
-            if end <= values.len() {
-                group.values.extend_from_slice(&values[offset..end]);
-            } else {
-                let present = &values[offset.min(values.len())..];
-                group.values.extend_from_slice(present);
+            let unit = group.unit;
+            group.values.extend(
                 group
-                    .values
-                    .extend(std::iter::repeat_n(f64::NAN, group.width - present.len()));
-            }
-            offset = end;
+                    .indices
+                    .iter()
+                    .map(|&i| values.get(i).map_or(f64::NAN, |&v| unit.from_si(v))),
+            );
+        }
+        for (index, marker) in self.markers.iter_mut().enumerate() {
+            let position = markers.get(index).copied().unwrap_or([f64::NAN; 2]);
+            marker.add(self.samples, position);
+        }
+        self.samples += 1;
+        if self.samples % TRACE_EVERY == 0 {
+            self.send_traces()
+                .map_err(|reason| self.write_error(reason))?;
         }
         if self.steps.len() >= FLUSH_EVERY {
             self.send_buffered()
@@ -333,7 +497,7 @@ impl Recorder {
         } else {
             self.last_time
         };
-        TextLog::new(text)
+        TextLog::new(event_text(text))
             .with_level(level)
             .columns_of_unit_batches()
             .map_err(|err| error_chain(&err))
@@ -346,13 +510,54 @@ impl Recorder {
         self.check()
     }
 
+    /// Writes the run's summary as the recording's `summary` text document (Markdown).
+    pub fn summary(&mut self, markdown: &str) -> Result<(), RecordingError> {
+        let Some(stream) = &self.stream else {
+            return Ok(());
+        };
+        stream
+            .log_static(
+                SUMMARY,
+                &TextDocument::new(markdown).with_media_type(MediaType::markdown()),
+            )
+            .map_err(|err| self.write_error(error_chain(&err)))?;
+        self.check()
+    }
+
+    /// Sends each marker's trace so far as one line strip at the last sample's time.
+    fn send_traces(&mut self) -> Result<(), String> {
+        let (Some(stream), Some(&step)) = (&self.stream, self.steps.last()) else {
+            return Ok(());
+        };
+        for marker in &self.markers {
+            let Some(entity) = &marker.trace else {
+                continue;
+            };
+            if marker.trace_points.len() < 2 {
+                continue;
+            }
+            let strip = LineStrips2D::update_fields().with_strips([marker.trace_points.clone()]);
+            let columns = strip
+                .columns_of_unit_batches()
+                .map_err(|err| error_chain(&err))?;
+            stream
+                .send_columns(
+                    entity.clone(),
+                    timeline_columns(&[step], &[self.last_time]),
+                    columns,
+                )
+                .map_err(|err| error_chain(&err))?;
+        }
+        Ok(())
+    }
+
     /// Sends what is buffered, drains Rerun's pipeline into the file, writes the footer and renames
     /// the file onto its path (replacing what is there: when runs record the same path, the last
     /// to finish wins). Then waits for the live viewer, if any, at most
     /// [`live::LIVE_FINISH_TIMEOUT`] (5 s); its failure is a warning in the outcome. On error the
     /// temporary file is removed and nothing is written at the path.
     pub fn finish(mut self) -> Result<RecordingOutcome, RecordingError> {
-        let sent = self.send_buffered();
+        let sent = self.send_traces().and_then(|()| self.send_buffered());
         // The last handle: dropping it sends everything pending through the sink and joins
         // Rerun's threads, so the file holds every message afterwards.
         drop(self.stream.take());
@@ -413,20 +618,19 @@ impl Recorder {
         };
 
         for group in &mut self.groups {
-            if group.width == 0 {
+            let width = group.indices.len();
+            if width == 0 {
                 continue;
             }
-            let values = std::mem::replace(
-                &mut group.values,
-                Vec::with_capacity(FLUSH_EVERY * group.width),
-            );
+            let values =
+                std::mem::replace(&mut group.values, Vec::with_capacity(FLUSH_EVERY * width));
             let batch = SerializedComponentBatch::new(
                 Arc::new(Float64Array::from(values)),
                 Scalars::descriptor_scalars(),
             );
             note(
                 batch
-                    .partitioned(std::iter::repeat_n(group.width, rows))
+                    .partitioned(std::iter::repeat_n(width, rows))
                     .map_err(|err| error_chain(&err))
                     .and_then(|column| {
                         stream
@@ -463,6 +667,11 @@ impl Recorder {
             link.all_finite = true;
         }
 
+        for marker in &mut self.markers {
+            note(send_marker(stream, marker, &self.steps, &self.times));
+            marker.positions.clear();
+        }
+
         self.steps.clear();
         self.times.clear();
         first_error.map_or(Ok(()), Err)
@@ -481,8 +690,8 @@ impl Drop for Recorder {
     }
 }
 
-/// The empty sample buffers of the layout's links and series groups.
-fn buffers(layout: &RecordingLayout) -> (Vec<LinkPoses>, Vec<Group>) {
+/// The empty sample buffers of the layout's links, plots and scene markers.
+fn buffers(layout: &RecordingLayout) -> (Vec<LinkPoses>, Vec<Group>, Vec<MarkerBuffer>) {
     let links = layout
         .links
         .iter()
@@ -497,52 +706,207 @@ fn buffers(layout: &RecordingLayout) -> (Vec<LinkPoses>, Vec<Group>) {
         })
         .collect();
     let groups = layout
-        .series
+        .plots
         .iter()
-        .map(|group| Group {
-            entity: EntityPath::from(format!("{SIGNALS}/{}", group.path.trim_matches('/'))),
-            width: group.names.len(),
-            values: Vec::with_capacity(FLUSH_EVERY * group.names.len()),
+        .filter(|plot| !plot.series.is_empty())
+        .map(|plot| Group {
+            entity: EntityPath::from(plot.entity()),
+            unit: plot.unit,
+            indices: plot.series.iter().map(|s| s.value).collect(),
+            values: Vec::with_capacity(FLUSH_EVERY * plot.series.len()),
         })
         .collect();
-    (links, groups)
+    let markers = layout
+        .scene
+        .iter()
+        .flat_map(|scene| &scene.markers)
+        .map(|marker| MarkerBuffer {
+            entity: scene_entity("markers", &marker.name),
+            positions: Vec::with_capacity(2 * FLUSH_EVERY),
+            trace: marker.trace.then(|| scene_entity("traces", &marker.name)),
+            trace_points: Vec::new(),
+            stride: 1,
+        })
+        .collect();
+    (links, groups, markers)
 }
 
-/// Logs the static parts of the recording: the y-up root transform, the link shapes, the scenario
-/// text and the series names.
-fn log_layout(
-    stream: &RecordingStream,
-    layout: &RecordingLayout,
-    links: &[LinkPoses],
-    groups: &[Group],
-) -> Result<(), String> {
-    let log_static = |entity: &EntityPath, archetype: &dyn rerun::AsComponents| {
+/// `/mechanism/<kind>/<name>`.
+fn scene_entity(kind: &str, name: &str) -> EntityPath {
+    EntityPath::new(vec![
+        EntityPathPart::new(MECHANISM),
+        EntityPathPart::new(kind),
+        EntityPathPart::new(name),
+    ])
+}
+
+/// Logs the static parts of the recording: the y-up root transform, the links (coloured and
+/// labelled), the scene, the scenario text and the plots' series names and colours.
+fn log_layout(stream: &RecordingStream, layout: &RecordingLayout) -> Result<(), String> {
+    let log_static = |entity: EntityPath, archetype: &dyn rerun::AsComponents| {
         stream
-            .log_static(entity.clone(), archetype)
+            .log_static(entity, archetype)
             .map_err(|err| error_chain(&err))
     };
     log_static(
-        &EntityPath::from(MECHANISM),
+        EntityPath::from(MECHANISM),
         &Transform3D::from_scale([1.0, -1.0, 1.0]),
     )?;
-    for (index, ((_, shapes), link)) in layout.links.iter().zip(links).enumerate() {
-        if let Some(strips) = link_strips(shapes, PALETTE[index % PALETTE.len()]) {
-            log_static(&link.entity, &strips)?;
+    for (index, (name, shapes)) in layout.links.iter().enumerate() {
+        let color = LINK_PALETTE[index % LINK_PALETTE.len()];
+        if let Some(strips) = link_strips(shapes, color) {
+            let entity = EntityPath::new(vec![
+                EntityPathPart::new(MECHANISM),
+                EntityPathPart::new(name.as_str()),
+            ]);
+            log_static(entity, &strips.with_labels([name.as_str()]))?;
         }
+    }
+    if let Some(scene) = &layout.scene {
+        log_scene(&log_static, scene)?;
     }
     log_static(
-        &EntityPath::from(SCENARIO),
+        EntityPath::from(SCENARIO),
         &TextDocument::new(layout.scenario_toml.as_str()).with_media_type(MediaType::plain_text()),
     )?;
-    for (group, series) in groups.iter().zip(&layout.series) {
-        if group.width > 0 {
-            log_static(
-                &group.entity,
-                &SeriesLines::new().with_names(series.names.iter().map(String::as_str)),
-            )?;
-        }
+    for plot in layout.plots.iter().filter(|p| !p.series.is_empty()) {
+        let colors = series_colors(plot);
+        log_static(
+            EntityPath::from(plot.entity()),
+            &SeriesLines::new()
+                .with_names(plot.series.iter().map(|s| plot.series_label(s)))
+                .with_colors(colors.iter().map(|&[r, g, b]| Color::from_rgb(r, g, b))),
+        )?;
     }
     Ok(())
+}
+
+/// The scene's drawings and the markers' and traces' colours and labels.
+fn log_scene(
+    log_static: &dyn Fn(EntityPath, &dyn rerun::AsComponents) -> Result<(), String>,
+    scene: &Scene,
+) -> Result<(), String> {
+    for drawing in &scene.drawings {
+        let strips = drawing
+            .lines
+            .iter()
+            .map(|line| line.iter().map(|&[x, y]| [x as f32, y as f32]).collect::<Vec<_>>());
+        let [r, g, b] = drawing.color;
+        log_static(
+            scene_entity("scene", &drawing.name),
+            &LineStrips2D::new(strips)
+                .with_colors([Color::from_rgb(r, g, b)])
+                .with_labels([drawing.label.as_str()]),
+        )?;
+    }
+    for marker in &scene.markers {
+        log_marker_style(log_static, marker)?;
+    }
+    Ok(())
+}
+
+fn log_marker_style(
+    log_static: &dyn Fn(EntityPath, &dyn rerun::AsComponents) -> Result<(), String>,
+    marker: &Marker,
+) -> Result<(), String> {
+    let [r, g, b] = marker.color;
+    let color = Color::from_rgb(r, g, b);
+    log_static(
+        scene_entity("markers", &marker.name),
+        &Points2D::update_fields()
+            .with_colors([color])
+            .with_radii([Radius::new_ui_points(4.0)])
+            .with_labels([marker.label.as_str()]),
+    )?;
+    if marker.trace {
+        log_static(
+            scene_entity("traces", &marker.name),
+            &LineStrips2D::update_fields().with_colors([color]),
+        )?;
+    }
+    Ok(())
+}
+
+/// Colours of a plot's series: each role's own colour, or, when that is taken in the plot, the
+/// next free one of the palette, so that the series of a plot are always told apart.
+fn series_colors(plot: &PlotSpec) -> Vec<[u8; 3]> {
+    const PALETTE: [[u8; 3]; 10] = [
+        [204, 121, 167],
+        [0, 114, 178],
+        [148, 103, 189],
+        [240, 228, 66],
+        [140, 86, 75],
+        [127, 127, 127],
+        [23, 190, 207],
+        [188, 189, 34],
+        [255, 152, 150],
+        [197, 176, 213],
+    ];
+    let mut used: Vec<[u8; 3]> = Vec::with_capacity(plot.series.len());
+    for series in &plot.series {
+        let own = match series.role {
+            SeriesRole::Reference => Some([220, 220, 220]),
+            SeriesRole::True => Some([86, 180, 233]),
+            SeriesRole::Measured => Some([230, 159, 0]),
+            SeriesRole::Commanded => Some([0, 158, 115]),
+            SeriesRole::Applied => Some([213, 94, 0]),
+            SeriesRole::Other => None,
+        };
+        let color = own
+            .filter(|c| !used.contains(c))
+            .or_else(|| PALETTE.iter().copied().find(|c| !used.contains(c)))
+            .unwrap_or(PALETTE[used.len() % PALETTE.len()]);
+        used.push(color);
+    }
+    used
+}
+
+/// Sends a marker's buffered positions as a `Points2D` position column, leaving out the
+/// non-finite ones.
+fn send_marker(
+    stream: &RecordingStream,
+    marker: &MarkerBuffer,
+    steps: &[i64],
+    times: &[f64],
+) -> Result<(), String> {
+    let kept: Vec<usize> = (0..steps.len())
+        .filter(|&i| marker.positions[2 * i..2 * i + 2].iter().all(|v| v.is_finite()))
+        .collect();
+    if kept.is_empty() {
+        return Ok(());
+    }
+    let steps: Vec<i64> = kept.iter().map(|&i| steps[i]).collect();
+    let times: Vec<f64> = kept.iter().map(|&i| times[i]).collect();
+    let xy: Vec<f32> = kept
+        .iter()
+        .flat_map(|&i| marker.positions[2 * i..2 * i + 2].iter().copied())
+        .collect();
+    let column = position_column(xy).map_err(|e| error_chain(&*e))?;
+    stream
+        .send_columns(
+            marker.entity.clone(),
+            timeline_columns(&steps, &times),
+            [column],
+        )
+        .map_err(|err| error_chain(&err))
+}
+
+/// A `Points2D` positions column of one point per row from x, y pairs.
+fn position_column(xy: Vec<f32>) -> Result<SerializedComponentColumn, BoxedError> {
+    let rows = xy.len() / 2;
+    let DataType::FixedSizeList(item, 2) = Position2D::arrow_datatype() else {
+        return Err("unexpected Position2D datatype".into());
+    };
+    let array: ArrayRef = Arc::new(FixedSizeListArray::try_new(
+        item,
+        2,
+        Arc::new(Float32Array::from(xy)),
+        None,
+    )?);
+    Ok(
+        SerializedComponentBatch::new(array, Points2D::descriptor_positions())
+            .partitioned(std::iter::repeat_n(1, rows))?,
+    )
 }
 
 fn timeline_columns(steps: &[i64], times: &[f64]) -> [TimeColumn; 2] {
@@ -671,6 +1035,32 @@ fn application_id(app: &str) -> ApplicationId {
     } else {
         id
     })
+}
+
+/// An event's text as the log shows it: without a leading "warning:" (the level says so), and
+/// wrapped at word boundaries so that long events stay readable.
+fn event_text(text: &str) -> String {
+    const WIDTH: usize = 64;
+    let trimmed = text.trim();
+    let body = ["warning:", "Warning:", "WARNING:"]
+        .iter()
+        .find_map(|prefix| trimmed.strip_prefix(prefix))
+        .map_or(trimmed, str::trim_start);
+    let mut out = String::with_capacity(body.len() + body.len() / WIDTH + 1);
+    let mut line = 0;
+    for word in body.split(' ') {
+        let width = word.chars().count();
+        if line > 0 && line + 1 + width > WIDTH {
+            out.push('\n');
+            line = 0;
+        } else if line > 0 {
+            out.push(' ');
+            line += 1;
+        }
+        out.push_str(word);
+        line += width;
+    }
+    out
 }
 
 /// An error and its sources, for messages that name the root cause.

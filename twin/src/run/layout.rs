@@ -144,6 +144,16 @@ impl SignalLayout {
         &signals[self.machine_signals.clone()]
     }
 
+    /// Where the machine's own signals are among the plant's signals.
+    pub(super) fn machine_signal_range(&self) -> Range<usize> {
+        self.machine_signals.clone()
+    }
+
+    /// Where the reference triple is among the plant's signals (empty without one).
+    pub(super) fn reference_range(&self) -> Range<usize> {
+        self.reference.map_or(0..0, |start| start..start + 3)
+    }
+
     /// Names of the machine's own signals.
     pub fn machine_signal_names(&self) -> &[String] {
         &self.signals[self.machine_signals.clone()]

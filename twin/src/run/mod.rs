@@ -18,12 +18,13 @@ use crate::machines::{self, Machine, MachineError};
 use crate::mechanism::{JointMotion, Mechanism};
 use crate::physics::MechanismState;
 use crate::recording::{LiveViewer, RecordingError};
+use crate::scene::{Bounds, Scene};
 use crate::scenario::{LoadedScenario, Scenario, ScenarioError};
 use crate::sensors::Sensor;
 use crate::urdf::{self, UrdfError};
 use controllers::{Actuator, Controller, ControllerError, EffortKind, PlantInterface, Registry};
 use layout::LayoutParts;
-use record::RecordingObserver;
+use record::{RecordingObserver, RecordingParts};
 use session::Session;
 use stats::RunStats;
 use std::path::Path;
@@ -296,6 +297,8 @@ impl Twin {
         observers: &mut [&mut dyn Observer],
     ) -> Result<RunSummary, TwinError> {
         let mut recorder = recording.map(|path| self.recording_observer(path));
+        // The recording finishes last, with the summary.
+        let recorded = usize::from(recorder.is_some());
         let mut stats = RunStats::default();
         let mut evaluators = std::mem::take(&mut self.evaluators);
         let mut watching: Vec<&mut dyn Observer> = Vec::with_capacity(2 + observers.len());
@@ -313,13 +316,14 @@ impl Twin {
         let wall_s = started.elapsed().as_secs_f64();
         let mut metrics = self.machine.metrics();
         let mut warnings = Vec::new();
-        for observer in &mut watching {
+        for observer in watching.iter_mut().skip(recorded) {
             let findings = observer.finish().map_err(observer_error)?;
             metrics.extend(findings.metrics);
             warnings.extend(findings.warnings);
         }
+        drop(watching);
         let scenario = &self.loaded.scenario;
-        Ok(RunSummary {
+        let mut summary = RunSummary {
             scenario: scenario.name.clone(),
             controller: self.controller.name().to_string(),
             dt: scenario.dt,
@@ -331,22 +335,41 @@ impl Twin {
             interrupted: ending.interrupted,
             warnings,
             series_digest: ending.digest,
-        })
+        };
+        if let Some(recorder) = recorder.as_mut() {
+            let findings = recorder.finish_with(&summary).map_err(observer_error)?;
+            summary.warnings.extend(findings.warnings);
+        }
+        Ok(summary)
     }
 
     fn recording_observer(&self, path: &Path) -> RecordingObserver {
         let scenario = &self.loaded.scenario;
-        RecordingObserver::new(
-            path.to_path_buf(),
-            scenario.name.clone(),
-            self.loaded.toml.clone(),
-            self.mechanism
+        let start_text = format!(
+            "run started: scenario {}, machine {}, controller {}, scenario digest {:016x} \
+             (FNV-1a of its TOML), dt {} s, {} s",
+            scenario.name,
+            scenario.machine,
+            self.controller.name(),
+            fnv1a(self.loaded.toml.as_bytes()),
+            scenario.dt,
+            scenario.duration,
+        );
+        RecordingObserver::new(RecordingParts {
+            path: path.to_path_buf(),
+            app: scenario.name.clone(),
+            scenario_toml: self.loaded.toml.clone(),
+            links: self
+                .mechanism
                 .links
                 .iter()
                 .map(|l| (l.name.clone(), l.visuals.clone()))
                 .collect(),
-            self.live.clone(),
-        )
+            scene: framed(self.machine.scene(), &self.mechanism),
+            sensed: self.sensors.iter().map(Option::is_some).collect(),
+            start_text,
+            live: self.live.clone(),
+        })
     }
 
     fn stop_requested(&self) -> Option<usize> {
@@ -394,6 +417,30 @@ impl Twin {
         }
         None
     }
+}
+
+/// The scene with its frame widened to hold the links at their URDF pose and its drawings, with
+/// a margin, so that nothing drawn touches the view's border.
+fn framed(mut scene: Scene, mechanism: &Mechanism) -> Scene {
+    const MARGIN: f64 = 0.04;
+    let poses = mechanism.zero_pose();
+    let links = mechanism.links.iter().zip(&poses).flat_map(|(link, pose)| {
+        link.visuals
+            .iter()
+            .flat_map(|shape| shape.extent().map(|[x, y]| pose.apply(x, y)))
+    });
+    let drawings = scene.drawings.iter().flat_map(|d| d.lines.iter().flatten().copied());
+    if let Some(content) = Bounds::around(links.chain(drawings), MARGIN) {
+        scene.bounds = scene.bounds.union(&content);
+    }
+    scene
+}
+
+/// FNV-1a, 64 bits: a digest of the scenario text the recording names, to tell runs apart.
+fn fnv1a(bytes: &[u8]) -> u64 {
+    bytes.iter().fold(0xcbf2_9ce4_8422_2325, |hash, &b| {
+        (hash ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3)
+    })
 }
 
 /// A caller's observer, borrowed for as long as the run's own.

@@ -1,49 +1,319 @@
 //! The recording as one observer among others: every `recording.every`-th step and the last one
-//! to the `.rrd` file, every event as it happens.
+//! to the `.rrd` file, every event as it happens, the run's start and end as events and its
+//! summary as a text document.
+//!
+//! What is plotted with what follows the signals' specs ([`controllers::SignalSpec`]): every
+//! value naming the same plot in the same unit is drawn on it, whatever produced it, so that a
+//! reference or a command meets what it commands.
 
 use super::layout::SignalLayout;
 use super::observer::{Findings, Observer, ObserverError, StepView};
+use super::RunSummary;
 use crate::mechanism::Shape;
-use crate::recording::{LiveViewer, Recorder, RecordingLayout, SeriesGroup};
+use crate::recording::{
+    LiveViewer, PlotSpec, PlotTab, Recorder, RecordingLayout, SeriesRole, SeriesSpec,
+};
+use crate::scene::Scene;
+use controllers::{EventLevel, SignalSpec, Unit};
 use std::path::PathBuf;
 
 /// Records a run to a file (and a live viewer, if any).
 pub struct RecordingObserver {
     path: PathBuf,
-    /// The layout without the series groups, which come with the run's [`SignalLayout`].
+    /// The layout without the plots, which come with the run's [`SignalLayout`].
     layout: RecordingLayout,
+    /// Per plant signal: whether a sensor makes its measurement differ from its true value.
+    sensed: Vec<bool>,
+    /// The run's first event: scenario, controller, parameters digest.
+    start_text: String,
     recorder: Option<Recorder>,
+    /// Per scene marker: where its x and y come from in `values`.
+    marker_sources: Vec<MarkerValues>,
     values: Vec<f64>,
+    markers: Vec<[f64; 2]>,
+    last_step: usize,
+    last_time: f64,
+}
+
+/// A marker's position from the recorded values: `origin + scale·(x, y)`.
+#[derive(Debug, Clone, Copy)]
+struct MarkerValues {
+    x: Option<usize>,
+    y: Option<usize>,
+    scale: f64,
+    origin: [f64; 2],
+}
+
+/// What the recording is made of, besides the run's layout.
+pub struct RecordingParts {
+    pub path: PathBuf,
+    pub app: String,
+    pub scenario_toml: String,
+    pub links: Vec<(String, Vec<Shape>)>,
+    pub scene: Scene,
+    pub sensed: Vec<bool>,
+    pub start_text: String,
+    pub live: Option<LiveViewer>,
 }
 
 impl RecordingObserver {
-    pub fn new(
-        path: PathBuf,
-        app: String,
-        scenario_toml: String,
-        links: Vec<(String, Vec<Shape>)>,
-        live: Option<LiveViewer>,
-    ) -> Self {
+    pub fn new(parts: RecordingParts) -> Self {
         Self {
-            path,
+            path: parts.path,
             layout: RecordingLayout {
-                app,
-                scenario_toml,
-                links,
-                series: Vec::new(),
-                live,
+                app: parts.app,
+                scenario_toml: parts.scenario_toml,
+                links: parts.links,
+                scene: Some(parts.scene),
+                plots: Vec::new(),
+                live: parts.live,
             },
+            sensed: parts.sensed,
+            start_text: parts.start_text,
             recorder: None,
+            marker_sources: Vec::new(),
             values: Vec::new(),
+            markers: Vec::new(),
+            last_step: 0,
+            last_time: 0.0,
+        }
+    }
+
+    /// Ends the recording with the run's outcome: an event with its status and headline figures,
+    /// and the summary as a text document; then completes the file.
+    pub fn finish_with(&mut self, summary: &RunSummary) -> Result<Findings, ObserverError> {
+        if let Some(recorder) = self.recorder.as_mut() {
+            let (level, text) = end_event(summary);
+            let step = step_index(self.last_step);
+            recorder.event(step, self.last_time, level, &text)?;
+            recorder.summary(&summary_markdown(summary))?;
+        }
+        self.finish()
+    }
+}
+
+/// Values are laid out as: joint positions, joint velocities, commanded efforts, applied efforts,
+/// the plant's true signals, their measurements, the controller's internals, the diagnostics.
+struct Offsets {
+    velocities: usize,
+    commanded: usize,
+    applied: usize,
+    signals: usize,
+    measured: usize,
+    internals: usize,
+    diagnostics: usize,
+}
+
+impl Offsets {
+    fn of(layout: &SignalLayout) -> Self {
+        let joints = layout.joints.len();
+        let velocities = joints;
+        let commanded = velocities + joints;
+        let applied = commanded + layout.actuators.len();
+        let signals = applied + layout.actuators.len();
+        let measured = signals + layout.signals.len();
+        let internals = measured + layout.signals.len();
+        let diagnostics = internals + layout.internals.len();
+        Self {
+            velocities,
+            commanded,
+            applied,
+            signals,
+            measured,
+            internals,
+            diagnostics,
         }
     }
 }
 
-fn group(path: &str, names: &[String]) -> SeriesGroup {
-    SeriesGroup {
-        path: path.into(),
-        names: names.to_vec(),
+/// Where a series comes from, which decides its plot's tab.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Source {
+    Joint,
+    Effort,
+    Machine,
+    Reference,
+    Measured,
+    Internal,
+    Diagnostic,
+}
+
+/// The plots, in order of first appearance, each gathering the series of one name and unit.
+#[derive(Default)]
+struct PlotPlan {
+    plots: Vec<(PlotSpec, Vec<Source>)>,
+}
+
+impl PlotPlan {
+    fn add(&mut self, spec: &SignalSpec, name: String, role: SeriesRole, source: Source, value: usize) {
+        let index = match self
+            .plots
+            .iter()
+            .position(|(plot, _)| plot.name == spec.plot && plot.unit == spec.unit)
+        {
+            Some(index) => index,
+            None => {
+                self.plots.push((
+                    PlotSpec {
+                        tab: PlotTab::Process,
+                        name: spec.plot.clone(),
+                        unit: spec.unit,
+                        series: Vec::new(),
+                    },
+                    Vec::new(),
+                ));
+                self.plots.len() - 1
+            }
+        };
+        let (plot, sources) = &mut self.plots[index];
+        let name = if plot.series.iter().any(|s| s.name == name) {
+            format!("{name} ({})", source_label(source))
+        } else {
+            name
+        };
+        plot.series.push(SeriesSpec { name, role, value });
+        sources.push(source);
     }
+
+    /// The plots with their tabs: an effort's plot is on `efforts`; a reference or controller
+    /// value drawn with a simulated or measured one is `tracking`; otherwise the tab of the
+    /// plot's first series.
+    fn finish(self) -> Vec<PlotSpec> {
+        self.plots
+            .into_iter()
+            .map(|(mut plot, sources)| {
+                let has = |wanted: &[Source]| sources.iter().any(|s| wanted.contains(s));
+                plot.tab = if has(&[Source::Effort]) {
+                    PlotTab::Efforts
+                } else if has(&[Source::Reference, Source::Internal])
+                    && has(&[Source::Machine, Source::Joint, Source::Measured, Source::Diagnostic])
+                {
+                    PlotTab::Tracking
+                } else {
+                    match sources[0] {
+                        Source::Joint => PlotTab::Joints,
+                        Source::Internal => PlotTab::Controller,
+                        Source::Diagnostic => PlotTab::Diagnostics,
+                        _ => PlotTab::Process,
+                    }
+                };
+                plot
+            })
+            .collect()
+    }
+}
+
+fn source_label(source: Source) -> &'static str {
+    match source {
+        Source::Joint => "joint",
+        Source::Effort => "effort",
+        Source::Machine => "machine",
+        Source::Reference => "scenario",
+        Source::Measured => "measured",
+        Source::Internal => "controller",
+        Source::Diagnostic => "check",
+    }
+}
+
+/// What an effort in `unit` is called on its plot.
+fn effort_quantity(unit: Unit) -> &'static str {
+    match unit {
+        Unit::Ampere => "current",
+        Unit::NewtonMetre => "torque",
+        Unit::Newton => "force",
+        _ => "effort",
+    }
+}
+
+/// The plots of a run: joints, efforts (per actuator, commanded with applied), the plant's
+/// signals (and their measurements where a sensor changes them), the reference, the
+/// controller's internals and the diagnostics.
+fn plan(layout: &SignalLayout, sensed: &[bool]) -> Vec<PlotSpec> {
+    let at = Offsets::of(layout);
+    let specs = &layout.specs;
+    let mut plan = PlotPlan::default();
+    let machine = layout.machine_signal_range();
+    let reference = layout.reference_range();
+    for (k, spec) in specs.signals.iter().enumerate() {
+        let source = if machine.contains(&k) {
+            Source::Machine
+        } else if reference.contains(&k) {
+            Source::Reference
+        } else {
+            continue; // a joint's: drawn from the joint state below
+        };
+        let role = if source == Source::Reference {
+            SeriesRole::Reference
+        } else {
+            SeriesRole::True
+        };
+        plan.add(spec, spec.name.clone(), role, source, at.signals + k);
+    }
+    for (k, spec) in specs.signals.iter().enumerate() {
+        if sensed.get(k).copied().unwrap_or(false) {
+            let name = format!("{} measured", spec.name);
+            plan.add(spec, name, SeriesRole::Measured, Source::Measured, at.measured + k);
+        }
+    }
+    for (j, [position, velocity]) in specs.joints.iter().enumerate() {
+        plan.add(position, position.name.clone(), SeriesRole::True, Source::Joint, j);
+        let value = at.velocities + j;
+        plan.add(velocity, velocity.name.clone(), SeriesRole::True, Source::Joint, value);
+    }
+    for (a, (joint, [commanded, applied])) in layout.actuators.iter().zip(&specs.efforts).enumerate() {
+        for (unit, role, name, value) in [
+            (*commanded, SeriesRole::Commanded, "commanded", at.commanded + a),
+            (*applied, SeriesRole::Applied, "applied", at.applied + a),
+        ] {
+            let spec = SignalSpec::new(name, unit, format!("{joint} {}", effort_quantity(unit)));
+            plan.add(&spec, format!("{joint} {name}"), role, Source::Effort, value);
+        }
+    }
+    for (k, spec) in specs.internals.iter().enumerate() {
+        let role = if spec.name == "reference" {
+            SeriesRole::Reference
+        } else if spec.name.contains("command") {
+            SeriesRole::Commanded
+        } else {
+            SeriesRole::Other
+        };
+        plan.add(spec, spec.name.clone(), role, Source::Internal, at.internals + k);
+    }
+    for (k, spec) in specs.diagnostics.iter().enumerate() {
+        let value = at.diagnostics + k;
+        plan.add(spec, spec.name.clone(), SeriesRole::Other, Source::Diagnostic, value);
+    }
+    plan.finish()
+}
+
+/// Where each scene marker's coordinates are in the values; a marker naming a signal the run
+/// does not have (a reference the scenario leaves out) is dropped from the scene.
+fn bind_markers(scene: &mut Scene, layout: &SignalLayout) -> Vec<MarkerValues> {
+    let at = Offsets::of(layout);
+    let find = |name: &str| {
+        layout
+            .signal(name)
+            .map(|k| at.signals + k)
+            .or_else(|| layout.internal(name).map(|k| at.internals + k))
+            .or_else(|| layout.diagnostic(name).map(|k| at.diagnostics + k))
+    };
+    let mut bound = Vec::with_capacity(scene.markers.len());
+    scene.markers.retain(|marker| {
+        let source = &marker.source;
+        let x = source.x.as_deref().map(find);
+        let y = source.y.as_deref().map(find);
+        if x == Some(None) || y == Some(None) {
+            return false;
+        }
+        bound.push(MarkerValues {
+            x: x.flatten(),
+            y: y.flatten(),
+            scale: source.scale,
+            origin: source.origin,
+        });
+        true
+    });
+    bound
 }
 
 /// The recording's step index (the run's step counts stay far below i64's range).
@@ -51,19 +321,48 @@ fn step_index(step: usize) -> i64 {
     i64::try_from(step).unwrap_or(i64::MAX)
 }
 
+/// The run's last event: how it ended and its first figures.
+fn end_event(summary: &RunSummary) -> (EventLevel, String) {
+    const HEADLINE: usize = 4;
+    let (level, status) = match (&summary.failure, &summary.interrupted) {
+        (Some(failure), _) => (EventLevel::Error, format!("run failed: {failure}")),
+        (None, Some(stop)) => (EventLevel::Warning, format!("run stopped: {stop}")),
+        (None, None) => (EventLevel::Info, "run ended: ok".to_owned()),
+    };
+    let figures: Vec<String> = summary
+        .metrics
+        .iter()
+        .take(HEADLINE)
+        .map(|(name, value)| format!("{name} = {value:.4e}"))
+        .collect();
+    let rest = summary.metrics.len().saturating_sub(HEADLINE);
+    let more = if rest > 0 {
+        format!("; {rest} more in the summary tab")
+    } else {
+        String::new()
+    };
+    (level, format!("{status}; {}{more}", figures.join(", ")))
+}
+
+/// The summary as Markdown: the table `twin run` prints, verbatim.
+fn summary_markdown(summary: &RunSummary) -> String {
+    format!(
+        "# {}\n\n```\n{}```\n",
+        summary.scenario,
+        crate::summary::to_table(summary)
+    )
+}
+
 impl Observer for RecordingObserver {
     fn start(&mut self, layout: &SignalLayout) -> Result<(), ObserverError> {
-        self.layout.series = vec![
-            group("joints/position", &layout.joints),
-            group("joints/velocity", &layout.joints),
-            group("effort/commanded", &layout.actuators),
-            group("effort/applied", &layout.actuators),
-            group("task", layout.machine_signal_names()),
-            group("measurement", &layout.signals),
-            group("controller", &layout.internals),
-            group("diagnostics", &layout.diagnostics),
-        ];
-        self.recorder = Some(Recorder::create(&self.path, &self.layout)?);
+        self.layout.plots = plan(layout, &self.sensed);
+        if let Some(scene) = self.layout.scene.as_mut() {
+            self.marker_sources = bind_markers(scene, layout);
+        }
+        self.markers = vec![[f64::NAN; 2]; self.marker_sources.len()];
+        let mut recorder = Recorder::create(&self.path, &self.layout)?;
+        recorder.event(0, 0.0, EventLevel::Info, &self.start_text)?;
+        self.recorder = Some(recorder);
         Ok(())
     }
 
@@ -71,6 +370,8 @@ impl Observer for RecordingObserver {
         let Some(recorder) = self.recorder.as_mut() else {
             return Ok(());
         };
+        self.last_step = view.step;
+        self.last_time = view.time;
         for event in view.events {
             recorder.event(step_index(view.step), view.time, event.level, &event.text)?;
         }
@@ -82,15 +383,23 @@ impl Observer for RecordingObserver {
             values.extend(movable.iter().map(|&j| view.state.joint_velocities[j]));
             values.extend_from_slice(view.commanded);
             values.extend_from_slice(view.applied);
-            values.extend_from_slice(view.layout.machine_signals(view.signals));
+            values.extend_from_slice(view.signals);
             values.extend_from_slice(view.measured);
             values.extend_from_slice(view.internals);
             values.extend_from_slice(view.diagnostics);
+            let value = |index: Option<usize>| index.map_or(0.0, |i| values[i]);
+            for (position, source) in self.markers.iter_mut().zip(&self.marker_sources) {
+                *position = [
+                    source.origin[0] + source.scale * value(source.x),
+                    source.origin[1] + source.scale * value(source.y),
+                ];
+            }
             recorder.push(
                 step_index(view.step),
                 view.time,
                 &view.state.link_poses,
                 values,
+                &self.markers,
             )?;
         }
         Ok(())
