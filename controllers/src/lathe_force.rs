@@ -465,8 +465,16 @@ impl Controller for LatheForce {
             SignalSpec::new("power_error", Unit::Kilowatt, "power error"),
             SignalSpec::new("commanded_feed_1", Unit::MillimetrePerRev, "tool 1 feed"),
             SignalSpec::new("commanded_feed_2", Unit::MillimetrePerRev, "tool 2 feed"),
-            SignalSpec::new("slide_speed_command_1", Unit::MillimetrePerSecond, "slide speed commands"),
-            SignalSpec::new("slide_speed_command_2", Unit::MillimetrePerSecond, "slide speed commands"),
+            SignalSpec::new(
+                "slide_speed_command_1",
+                Unit::MillimetrePerSecond,
+                "slide speed commands",
+            ),
+            SignalSpec::new(
+                "slide_speed_command_2",
+                Unit::MillimetrePerSecond,
+                "slide speed commands",
+            ),
             SignalSpec::new("spindle_speed_error", Unit::Rpm, "spindle speed error"),
         ]
     }

@@ -26,7 +26,9 @@
 
 use crate::filters::FirstOrderFilter;
 use crate::registry::{parse_params, Entry};
-use crate::{Controller, ControllerError, EffortKind, Measurement, PlantInterface, SignalSpec, Unit};
+use crate::{
+    Controller, ControllerError, EffortKind, Measurement, PlantInterface, SignalSpec, Unit,
+};
 use serde::Deserialize;
 
 /// Measured reference signals the feed-axis controllers read, as the scenario names them.
@@ -289,7 +291,11 @@ impl Controller for PPi {
     fn internals(&self) -> Vec<SignalSpec> {
         vec![
             SignalSpec::new("position_error", Unit::Micrometre, "table position error"),
-            SignalSpec::new("velocity_estimate", Unit::MicrometrePerSecond, "table velocity"),
+            SignalSpec::new(
+                "velocity_estimate",
+                Unit::MicrometrePerSecond,
+                "table velocity",
+            ),
             SignalSpec::new("beta", Unit::MicrometrePerSecond, "table velocity"),
             SignalSpec::new("disturbance_compensation", Unit::Newton, "force terms"),
             SignalSpec::new("damping_compensation", Unit::Newton, "force terms"),

@@ -109,9 +109,21 @@ impl Guide {
             SignalSpec::new("odometry.x_h", Unit::Metre, "point h x"),
             SignalSpec::new("odometry.y_h", Unit::Metre, "point h y"),
             SignalSpec::new("odometry.heading", Unit::Degree, "heading"),
-            SignalSpec::new("odometry.tracking_error", Unit::Millimetre, "tracking error"),
-            SignalSpec::new("correction.vx_h", Unit::MillimetrePerSecond, "velocity correction"),
-            SignalSpec::new("correction.vy_h", Unit::MillimetrePerSecond, "velocity correction"),
+            SignalSpec::new(
+                "odometry.tracking_error",
+                Unit::Millimetre,
+                "tracking error",
+            ),
+            SignalSpec::new(
+                "correction.vx_h",
+                Unit::MillimetrePerSecond,
+                "velocity correction",
+            ),
+            SignalSpec::new(
+                "correction.vy_h",
+                Unit::MillimetrePerSecond,
+                "velocity correction",
+            ),
         ]
     }
 

@@ -173,7 +173,11 @@ impl SuperTwistingLaw {
     pub(crate) fn internals() -> Vec<SignalSpec> {
         vec![
             SignalSpec::new("position_error", Unit::Micrometre, "table position error"),
-            SignalSpec::new("velocity_estimate", Unit::MicrometrePerSecond, "table velocity"),
+            SignalSpec::new(
+                "velocity_estimate",
+                Unit::MicrometrePerSecond,
+                "table velocity",
+            ),
             SignalSpec::new("surface", Unit::MicrometrePerSecond, "sliding surface"),
             SignalSpec::new("equivalent_force", Unit::Newton, "force terms"),
             SignalSpec::new("twisting_force", Unit::Newton, "force terms"),

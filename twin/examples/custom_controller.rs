@@ -8,7 +8,9 @@
 //! Run: `cargo run --release -p twin --example custom_controller`
 
 use controllers::registry::Entry;
-use controllers::{Controller, ControllerError, Measurement, PlantInterface, Registry};
+use controllers::{
+    Controller, ControllerError, Measurement, PlantInterface, Registry, SignalSpec, Unit,
+};
 use twin::{Overrides, Twin};
 
 struct TwoSpeedCrank {
@@ -44,8 +46,9 @@ impl Controller for TwoSpeedCrank {
         efforts[self.crank] = self.gain * (self.target - measurement.get(self.crank_speed));
     }
 
-    fn internal_names(&self) -> Vec<String> {
-        vec!["target_speed".into()]
+    fn internals(&self) -> Vec<SignalSpec> {
+        // On the crank's speed plot: the target beside the speed it sets.
+        vec![SignalSpec::new("target_speed", Unit::Rpm, "crank speed")]
     }
 
     fn internal_values(&self, values: &mut [f64]) {

@@ -193,7 +193,11 @@ fn shared_internals() -> Vec<SignalSpec> {
         SignalSpec::new("reference", Unit::Millimetre, "ram position"),
         SignalSpec::new("reference_rate", Unit::MetrePerSecond, "ram velocity"),
         SignalSpec::new("position_error", Unit::Micrometre, "ram position error"),
-        SignalSpec::new("velocity_error", Unit::MillimetrePerSecond, "ram velocity error"),
+        SignalSpec::new(
+            "velocity_error",
+            Unit::MillimetrePerSecond,
+            "ram velocity error",
+        ),
         SignalSpec::new("u", Unit::Newton, "slider force"),
         SignalSpec::new("rho_hat", Unit::Millimetre, "lever estimate"),
         SignalSpec::new("torque", Unit::NewtonMetre, "crank torque"),

@@ -3,12 +3,11 @@
 
 use super::lathe::{PhasePlane, RECORD_EVERY};
 use super::{create_dir, write_text, AnalysisError};
-use crate::recording::{write_plot, Plot2D, PlotGeometry, PlotLayer};
+use crate::recording::{write_plot, Plot2D, PlotAxis, PlotGeometry, PlotLayer};
 use models::lathe::{EquilibriumKind, FeedLimit, FeedRegime, PAPER_STEP};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
-const GREY: [u8; 3] = [150, 150, 150];
 const GREEN: [u8; 3] = [44, 160, 44];
 const RED: [u8; 3] = [214, 39, 40];
 const BLUE: [u8; 3] = [31, 119, 180];
@@ -185,17 +184,10 @@ fn lines(name: &str, color: [u8; 3], size: f32, lines: Vec<Vec<[f64; 2]>>) -> Pl
     }
 }
 
+/// The phase plane in N on both axes (equal scales), the window the portrait's.
 fn plot(plane: &PhasePlane) -> Plot2D {
-    let [max1, max2] = plane.window.max;
-    let mut layers = vec![PlotLayer {
-        labels: vec!["F1, N".into(), "F2, N".into()],
-        ..lines(
-            "axes",
-            GREY,
-            1.0,
-            vec![vec![[0.0, 0.0], [max1, 0.0]], vec![[0.0, 0.0], [0.0, max2]]],
-        )
-    }];
+    let (min, max) = (plane.window.min, plane.window.max);
+    let mut layers = Vec::new();
     for (converged, name, color) in [(true, "converged", GREEN), (false, "failing", RED)] {
         let chosen = || {
             plane
@@ -220,22 +212,44 @@ fn plot(plane: &PhasePlane) -> Plot2D {
             labels: Vec::new(),
         });
     }
+    layers.extend(curve_layers(plane));
+    layers.extend(equilibrium_layers(plane));
+    let axis = |i: usize| PlotAxis {
+        title: format!("cutting force F{} [N]", i + 1),
+        range: [min[i], max[i]],
+    };
+    Plot2D {
+        title: "lathe phase plane".into(),
+        notes: summary(plane),
+        x: axis(0),
+        y: axis(1),
+        aspect: Some((max[1] - min[1]) / (max[0] - min[0])),
+        layers,
+    }
+}
+
+/// Nullclines, saturation lines and the boundary of R_a, each labelled on the plot.
+fn curve_layers(plane: &PhasePlane) -> Vec<PlotLayer> {
+    let mut layers = Vec::new();
     for (tool, segments, color) in [
         (1, &plane.nullclines.tool1_at_rest, BLUE),
         (2, &plane.nullclines.tool2_at_rest, CYAN),
     ] {
-        layers.push(lines(
-            &format!("nullclines/tool_{tool}_at_rest"),
-            color,
-            2.0,
-            segments.clone(),
-        ));
+        layers.push(PlotLayer {
+            labels: vec![format!("Ḟ{tool} = 0 nullcline")],
+            ..lines(
+                &format!("nullclines/tool_{tool}_at_rest"),
+                color,
+                2.0,
+                segments.clone(),
+            )
+        });
     }
     for (line, segment) in &plane.saturation_lines {
         if let Some([a, b]) = segment {
             layers.push(PlotLayer {
                 labels: vec![format!(
-                    "tool {} {} (eq 21), P = {:.2} kW",
+                    "tool {} {} (eq 21, P = {:.2} kW)",
                     line.tool,
                     limit(line.limit).replace('_', " "),
                     line.spindle_power / 1e3
@@ -255,6 +269,11 @@ fn plot(plane: &PhasePlane) -> Plot2D {
             ..lines("boundary", YELLOW, 3.0, plane.boundaries.clone())
         });
     }
+    layers
+}
+
+fn equilibrium_layers(plane: &PhasePlane) -> Vec<PlotLayer> {
+    let mut layers = Vec::new();
     for (stable, name, color) in [(true, "stable", GREEN), (false, "unstable", RED)] {
         let chosen: Vec<_> = plane
             .equilibria
@@ -279,11 +298,7 @@ fn plot(plane: &PhasePlane) -> Plot2D {
                 .collect(),
         });
     }
-    Plot2D {
-        title: "lathe phase plane".into(),
-        notes: summary(plane),
-        layers,
-    }
+    layers
 }
 
 /// m/(rev·W) → mm/kW, for the paper's reader.

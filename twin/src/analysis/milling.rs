@@ -16,7 +16,7 @@
 
 use super::{create_dir, write_text, AnalysisError};
 use crate::mechanism::Mechanism;
-use crate::recording::{write_plot, Plot2D, PlotGeometry, PlotLayer};
+use crate::recording::{write_plot, Plot2D, PlotAxis, PlotGeometry, PlotLayer};
 use crate::run::{Findings, Observer, ObserverError, SignalLayout, StepView, Twin};
 use crate::scenario::{LoadedScenario, ScenarioBuilder};
 use controllers::Registry;
@@ -452,52 +452,29 @@ impl LobeAnalysis {
 }
 
 impl LobeAnalysis {
-    /// The diagram: x the speed in 1,000 rpm, y the depth in mm scaled to a square plot.
+    /// The diagram: x the spindle speed in rpm, y the axial depth of cut in mm.
     fn plot(&self) -> Plot2D {
-        let x = |speed: f64| speed * RPM / 1000.0;
+        let rpm = |speed: f64| speed * RPM;
+        let mm = |depth: f64| depth * 1e3;
         let [x0, x1] = [
-            self.lobes.first().map_or(0.0, |p| x(p.spindle_speed)),
-            self.lobes.last().map_or(1.0, |p| x(p.spindle_speed)),
+            self.lobes.first().map_or(0.0, |p| rpm(p.spindle_speed)),
+            self.lobes.last().map_or(1.0, |p| rpm(p.spindle_speed)),
         ];
-        let depth_top = self
-            .checks
-            .iter()
-            .map(|c| c.depth)
-            .chain(
-                self.lobes
-                    .iter()
-                    .filter_map(|p| p.boundary.map(|b| b.depth)),
-            )
-            .chain([self.operating_point[1]])
-            .fold(0.0, f64::max)
-            .max(1e-6);
-        let y_per_mm = (x1 - x0).max(1.0) / (depth_top * 1e3);
-        let y = |depth: f64| depth * 1e3 * y_per_mm;
-        let mut curves = vec![Vec::new()];
-        for p in &self.lobes {
-            match p.boundary {
-                Some(b) => curves
-                    .last_mut()
-                    .map_or((), |c| c.push([x(p.spindle_speed), y(b.depth)])),
-                None => curves.push(Vec::new()),
-            }
-        }
-        curves.retain(|c| c.len() > 1);
         let points = |chatter: bool| -> Vec<[f64; 2]> {
             self.checks
                 .iter()
                 .filter(|c| c.chatter == chatter)
-                .map(|c| [x(c.speed), y(c.depth)])
+                .map(|c| [rpm(c.speed), mm(c.depth)])
                 .collect()
         };
         let [speed, depth] = self.operating_point;
-        let mut layers = vec![
+        let layers = vec![
             layer(
                 "lobes",
                 [40, 90, 200],
                 2.0,
-                PlotGeometry::Lines(curves),
-                Vec::new(),
+                PlotGeometry::Lines(self.lobe_curves()),
+                vec!["stability limit".into()],
             ),
             layer(
                 "runs/stable",
@@ -517,26 +494,63 @@ impl LobeAnalysis {
                 "operating_point",
                 [240, 170, 20],
                 9.0,
-                PlotGeometry::Points(vec![[x(speed), y(depth)]]),
+                PlotGeometry::Points(vec![[rpm(speed), mm(depth)]]),
                 vec![format!(
                     "scenario: {:.0} rpm, {:.3} mm",
-                    speed * RPM,
-                    depth * 1e3
+                    rpm(speed),
+                    mm(depth)
                 )],
             ),
         ];
-        layers.extend(axes([x0, x1], depth_top, y_per_mm));
         Plot2D {
             title: "twin analyze milling: stability lobes".into(),
             notes: format!(
                 "Stability lobes (semi-discretization): limiting axial depth against spindle speed.\n\
-                 x: spindle speed (ticks in rpm); y: axial depth of cut (ticks in mm, 1 mm = {y_per_mm:.2} units).\n\
                  Above the curve the cut chatters. Dots: the twin's time-domain runs, green stable, red chatter.\n\
                  Star: the scenario's operating point.\n\n{}",
                 self.summary()
             ),
+            x: PlotAxis {
+                title: "spindle speed [rpm]".into(),
+                range: [x0, x1],
+            },
+            y: PlotAxis {
+                title: "axial depth of cut [mm]".into(),
+                range: [0.0, 1.05 * mm(self.depth_top())],
+            },
+            aspect: None,
             layers,
         }
+    }
+
+    /// The largest depth drawn (a check run, the lobes or the operating point), m.
+    fn depth_top(&self) -> f64 {
+        self.checks
+            .iter()
+            .map(|c| c.depth)
+            .chain(
+                self.lobes
+                    .iter()
+                    .filter_map(|p| p.boundary.map(|b| b.depth)),
+            )
+            .chain([self.operating_point[1]])
+            .fold(0.0, f64::max)
+            .max(1e-6)
+    }
+
+    /// The lobes as polylines of (rpm, mm), broken where a speed is stable to the maximum depth.
+    fn lobe_curves(&self) -> Vec<Vec<[f64; 2]>> {
+        let mut curves = vec![Vec::new()];
+        for p in &self.lobes {
+            match p.boundary {
+                Some(b) => curves
+                    .last_mut()
+                    .map_or((), |c| c.push([p.spindle_speed * RPM, b.depth * 1e3])),
+                None => curves.push(Vec::new()),
+            }
+        }
+        curves.retain(|c| c.len() > 1);
+        curves
     }
 }
 
@@ -554,45 +568,4 @@ fn layer(
         geometry,
         labels,
     }
-}
-
-/// The diagram's axes with ticks: speed (x in 1,000 rpm from `x0` to `x1`) and depth (up to
-/// `depth_top` m, `y_per_mm` plot units per mm).
-fn axes([x0, x1]: [f64; 2], depth_top: f64, y_per_mm: f64) -> [PlotLayer; 3] {
-    let grey = [120, 120, 120];
-    let y = |depth: f64| depth * 1e3 * y_per_mm;
-    let depths: Vec<f64> = (0..=4).map(|k| depth_top * k as f64 / 4.0).collect();
-    let speeds: Vec<f64> = (0..=4).map(|k| x0 + (x1 - x0) * k as f64 / 4.0).collect();
-    [
-        layer(
-            "axes",
-            grey,
-            1.0,
-            PlotGeometry::Lines(vec![
-                vec![[x0, 0.0], [x1, 0.0]],
-                vec![[x0, 0.0], [x0, y(depth_top)]],
-            ]),
-            Vec::new(),
-        ),
-        layer(
-            "axes/depth_ticks",
-            grey,
-            3.0,
-            PlotGeometry::Points(depths.iter().map(|&d| [x0, y(d)]).collect()),
-            depths
-                .iter()
-                .map(|d| format!("{:.3} mm", d * 1e3))
-                .collect(),
-        ),
-        layer(
-            "axes/speed_ticks",
-            grey,
-            3.0,
-            PlotGeometry::Points(speeds.iter().map(|&x| [x, 0.0]).collect()),
-            speeds
-                .iter()
-                .map(|x| format!("{:.0} rpm", x * 1000.0))
-                .collect(),
-        ),
-    ]
 }

@@ -156,6 +156,8 @@ const PAPER_CURRENT_TOLERANCE: f64 = 18.0;
 
 pub struct Arm {
     joints: [usize; 3],
+    /// Where the shoulder turns, world frame, m.
+    shoulder: [f64; 2],
     spindle_joint: usize,
     hand: usize,
     cutter_link: usize,
@@ -247,8 +249,10 @@ impl Arm {
             .chain(["spindle"].iter())
             .map(|m| m.to_string())
             .collect();
+        let shoulder = mechanism.zero_pose()[mechanism.joints[joints[0]].child];
         Ok(Self {
             joints,
+            shoulder: [shoulder.x, shoulder.y],
             spindle_joint,
             hand: link(MACHINE, mechanism, "hand")?,
             cutter_link,
@@ -371,7 +375,7 @@ impl Machine for Arm {
     }
 
     fn scene(&self) -> Scene {
-        scene(&self.contour, &self.stock)
+        scene(self.shoulder, &self.contour, &self.stock)
     }
 
     fn measure(
@@ -475,10 +479,12 @@ impl Machine for Arm {
     }
 }
 
-/// The part: its finished contour, the cast stock's outline
+/// The arm's workspace (its reach around the shoulder) with the part: its finished contour, the cast stock's outline
 /// (the contour offset by the stock depth, on the right of travel) and the tool point's trace.
-fn scene(contour: &ContourPath, stock: &Stock) -> Scene {
+fn scene(shoulder: [f64; 2], contour: &ContourPath, stock: &Stock) -> Scene {
     const SAMPLES: usize = 300;
+    /// Upper arm + forearm + hand, m (the model notes').
+    const REACH: f64 = 0.88;
     let mut finished = Vec::with_capacity(SAMPLES + 1);
     let mut outline = Vec::with_capacity(SAMPLES + 1);
     for i in 0..=SAMPLES {
@@ -488,11 +494,13 @@ fn scene(contour: &ContourPath, stock: &Stock) -> Scene {
         finished.push([x, y]);
         outline.push([x + ty * depth, y - tx * depth]);
     }
-    // The part; the twin adds the arm at its URDF pose, stretched out.
-    let bounds = Bounds::around(outline.iter().copied(), 0.05).unwrap_or(Bounds {
-        x: [-1.0, 1.0],
-        y: [-1.0, 1.0],
-    });
+    let [sx, sy] = shoulder;
+    let reach = [[-1.0, -1.0], [1.0, 1.0]].map(|[dx, dy]| [sx + dx * REACH, sy + dy * REACH]);
+    let bounds =
+        Bounds::around(reach.into_iter().chain(outline.iter().copied()), 0.03).unwrap_or(Bounds {
+            x: [-1.0, 1.0],
+            y: [-1.0, 1.0],
+        });
     Scene {
         title: "arm and part (m, y up)".into(),
         bounds,

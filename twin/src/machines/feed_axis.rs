@@ -24,9 +24,9 @@
 
 use super::{default_joint_signals, joint, process_params, Machine, MachineError};
 use crate::mechanism::{Joint, JointMotion, Mechanism, Pose2};
+use crate::physics::{Load, MechanismState, NO_DAMPING, NO_STIFFNESS};
 use crate::scene::{colors, Bounds, Drawing, Marker, MarkerSource, Scene};
 use controllers::{SignalSpec, Unit};
-use crate::physics::{Load, MechanismState, NO_DAMPING, NO_STIFFNESS};
 use models::micromilling::{MicroMillingCut, MicroMillingParams};
 use serde::Deserialize;
 
@@ -166,17 +166,29 @@ impl FeedAxis {
 
 impl Machine for FeedAxis {
     fn signals(&self) -> Vec<SignalSpec> {
-        vec![SignalSpec::new("table_current", Unit::Ampere, "table current")]
+        vec![SignalSpec::new(
+            "table_current",
+            Unit::Ampere,
+            "table current",
+        )]
     }
 
     fn diagnostics(&self) -> Vec<SignalSpec> {
-        vec![SignalSpec::new("cutting_force", Unit::Newton, "cutting force")]
+        vec![SignalSpec::new(
+            "cutting_force",
+            Unit::Newton,
+            "cutting force",
+        )]
     }
 
     fn reference(&self) -> Option<[SignalSpec; 3]> {
         Some([
             SignalSpec::new("reference", Unit::Micrometre, "table position"),
-            SignalSpec::new("reference_rate", Unit::MicrometrePerSecond, "table velocity"),
+            SignalSpec::new(
+                "reference_rate",
+                Unit::MicrometrePerSecond,
+                "table velocity",
+            ),
             SignalSpec::new(
                 "reference_acceleration",
                 Unit::MetrePerSecondSquared,
@@ -193,7 +205,11 @@ impl Machine for FeedAxis {
         }
         [
             SignalSpec::new("table.position", Unit::Micrometre, "table position"),
-            SignalSpec::new("table.velocity", Unit::MicrometrePerSecond, "table velocity"),
+            SignalSpec::new(
+                "table.velocity",
+                Unit::MicrometrePerSecond,
+                "table velocity",
+            ),
         ]
     }
 
@@ -269,7 +285,10 @@ const GAUGE_HEIGHT: f64 = 0.07;
 /// ticks every µm.
 fn scene() -> Scene {
     let gauge = |x: f64| GAUGE_MAGNIFICATION * x;
-    let mut lines = vec![vec![[gauge(-4e-6), GAUGE_HEIGHT], [gauge(4e-6), GAUGE_HEIGHT]]];
+    let mut lines = vec![vec![
+        [gauge(-4e-6), GAUGE_HEIGHT],
+        [gauge(4e-6), GAUGE_HEIGHT],
+    ]];
     lines.extend((-4..=4).map(|um| {
         let x = gauge(f64::from(um) * 1e-6);
         let half = if um == 0 { 0.012 } else { 0.006 };

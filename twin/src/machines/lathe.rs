@@ -18,9 +18,9 @@
 
 use super::{default_joint_signals, joint, process_params, Machine, MachineError};
 use crate::mechanism::{Joint, JointMotion, Mechanism};
+use crate::physics::{Load, MechanismState, NO_DAMPING, NO_STIFFNESS};
 use crate::scene::{colors, Bounds, Drawing, Marker, MarkerSource, Scene};
 use controllers::{SignalSpec, Unit};
-use crate::physics::{Load, MechanismState, NO_DAMPING, NO_STIFFNESS};
 use models::lathe::{Lathe, LatheParams, TOOLS};
 use serde::Deserialize;
 use std::f64::consts::TAU;

@@ -14,9 +14,9 @@
 
 use super::{default_joint_signals, joint, process_params, Machine, MachineError};
 use crate::mechanism::{Joint, JointMotion, Mechanism};
+use crate::physics::{Load, MechanismState, NO_DAMPING, NO_STIFFNESS};
 use crate::scene::{colors, Bounds, Drawing, Marker, MarkerSource, Scene};
 use controllers::{SignalSpec, Unit};
-use crate::physics::{Load, MechanismState, NO_DAMPING, NO_STIFFNESS};
 use models::milling::{CutForces, MillingCut, MillingCutParams, MAX_FLUTES};
 use serde::Deserialize;
 
@@ -156,7 +156,11 @@ impl Machine for Milling {
         let name = joint.name.as_str();
         if name == "tool_x" || name == "tool_y" {
             return [
-                SignalSpec::new(format!("{name}.position"), Unit::Micrometre, "tool displacement"),
+                SignalSpec::new(
+                    format!("{name}.position"),
+                    Unit::Micrometre,
+                    "tool displacement",
+                ),
                 SignalSpec::new(
                     format!("{name}.velocity"),
                     Unit::MillimetrePerSecond,

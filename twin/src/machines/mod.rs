@@ -124,12 +124,21 @@ pub fn default_joint_signals(joint: &Joint) -> [SignalSpec; 2] {
             "joint positions",
             "joint velocities",
         ),
-        _ if joint.limits.is_none() => (Unit::DegreeWrapped, Unit::Rpm, "joint angles", "joint speeds"),
+        _ if joint.limits.is_none() => (
+            Unit::DegreeWrapped,
+            Unit::Rpm,
+            "joint angles, wrapped",
+            "joint speeds",
+        ),
         _ => (Unit::Degree, Unit::Rpm, "joint angles", "joint speeds"),
     };
     [
         SignalSpec::new(format!("{}.position", joint.name), position_unit, positions),
-        SignalSpec::new(format!("{}.velocity", joint.name), velocity_unit, velocities),
+        SignalSpec::new(
+            format!("{}.velocity", joint.name),
+            velocity_unit,
+            velocities,
+        ),
     ]
 }
 

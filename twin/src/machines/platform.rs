@@ -22,8 +22,8 @@ mod motor;
 use super::{link, process_params, Machine, MachineError};
 use crate::mechanism::{wrap_angle, Mechanism, Pose2};
 use crate::physics::{Load, MechanismState, NO_DAMPING, NO_STIFFNESS};
-use controllers::{Actuator, EffortKind};
 use crate::scene::{colors, Bounds, Drawing, Marker, MarkerSource, Scene};
+use controllers::{Actuator, EffortKind};
 use controllers::{SignalSpec, Unit};
 use models::platform_path::{Path, PathSpec};
 use models::tyre::{static_normal_loads, TyreParams};
@@ -458,12 +458,16 @@ impl Machine for Platform {
         metrics.extend(friction);
         metrics
     }
-}/// The floor around the planned path of point h (drawn whole), with point h's planned, true and
+}
+/// The floor around the planned path of point h (drawn whole), with point h's planned, true and
 /// odometry positions traced as the run goes.
 fn scene(path: &Path) -> Scene {
     const PATH_SAMPLES: usize = 400;
     let planned: Vec<[f64; 2]> = (0..=PATH_SAMPLES)
-        .map(|i| path.at(path.length() * i as f64 / PATH_SAMPLES as f64).position)
+        .map(|i| {
+            path.at(path.length() * i as f64 / PATH_SAMPLES as f64)
+                .position
+        })
         .collect();
     let start = planned[0];
     let bounds = Bounds::around(planned.iter().copied(), 0.15).unwrap_or(Bounds {
@@ -488,9 +492,13 @@ fn scene(path: &Path) -> Scene {
         }],
         markers: vec![
             marker("true_h", "true h", colors::TRUE, "pose.x_h", "pose.y_h"),
-            marker("odometry_h", "odometry h", colors::ESTIMATE, "odometry.x_h", "odometry.y_h"),
+            marker(
+                "odometry_h",
+                "odometry h",
+                colors::ESTIMATE,
+                "odometry.x_h",
+                "odometry.y_h",
+            ),
         ],
     }
 }
-
-

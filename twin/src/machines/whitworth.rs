@@ -131,7 +131,10 @@ impl Machine for Whitworth {
     fn joint_signals(&self, joint: &Joint) -> [SignalSpec; 2] {
         let [position, velocity] = default_joint_signals(joint);
         if joint.name == "crank" {
-            return [position, SignalSpec::new("crank.velocity", Unit::Rpm, "crank speed")];
+            return [
+                position,
+                SignalSpec::new("crank.velocity", Unit::Rpm, "crank speed"),
+            ];
         }
         [position, velocity]
     }
@@ -229,7 +232,10 @@ fn scene(geometry: &Geometry, zone: Option<[f64; 2]>) -> Scene {
     let mut swept = Vec::with_capacity(3 * TURN_SAMPLES);
     for i in 0..TURN_SAMPLES {
         let angle = std::f64::consts::TAU * i as f64 / TURN_SAMPLES as f64;
-        let pin = [geometry.crank_length * angle.cos(), geometry.crank_length * angle.sin()];
+        let pin = [
+            geometry.crank_length * angle.cos(),
+            geometry.crank_length * angle.sin(),
+        ];
         let (dx, dy) = (pin[0] - pivot[0], pin[1] - pivot[1]);
         let reach = SLOTTED_LINK_REACH / dx.hypot(dy).max(1e-12);
         swept.push(pin);

@@ -5,8 +5,8 @@
 
 use rerun::external::re_log_types::{BlueprintActivationCommand, LogMsg, StoreId};
 use rerun::external::re_sdk_types::blueprint::archetypes::{
-    ContainerBlueprint, PanelBlueprint, PlotLegend, TimePanelBlueprint, ViewBlueprint, ViewContents,
-    ViewportBlueprint, VisualBounds2D,
+    ContainerBlueprint, PanelBlueprint, PlotLegend, TimePanelBlueprint, ViewBlueprint,
+    ViewContents, ViewportBlueprint, VisualBounds2D,
 };
 use rerun::external::re_sdk_types::blueprint::components::{
     ActiveTab, AutoLayout, AutoViews, ColumnShare, ContainerKind, Corner2D, GridColumns,
@@ -52,8 +52,15 @@ fn layout(title: &str, bounds: Option<Bounds>, plots: &[(String, &PlotSpec)]) ->
         };
         mechanism_properties.push(("VisualBounds2D", Box::new(VisualBounds2D::new(range))));
     }
-    let mechanism = view("2D", title, "/", vec![format!("+ /{MECHANISM}/**")], mechanism_properties);
-    let text = |class, name: &str, entity: &str| view(class, name, &format!("/{entity}"), vec![], vec![]);
+    let mechanism = view(
+        "2D",
+        title,
+        "/",
+        vec![format!("+ /{MECHANISM}/**")],
+        mechanism_properties,
+    );
+    let text =
+        |class, name: &str, entity: &str| view(class, name, &format!("/{entity}"), vec![], vec![]);
     let left = container(
         ContainerKind::Vertical,
         "",
@@ -263,7 +270,7 @@ pub(super) fn send_default(
         .log(
             "viewport",
             &ViewportBlueprint::new()
-                .with_root_container(RootContainer(root_uuid.into()))
+                .with_root_container(RootContainer(root_uuid))
                 .with_auto_layout(AutoLayout(Bool(false)))
                 .with_auto_views(AutoViews(Bool(false))),
         )
@@ -271,7 +278,10 @@ pub(super) fn send_default(
     // The side panels are folded away: the views get the window.
     for panel in ["blueprint_panel", "selection_panel"] {
         blueprint
-            .log(panel, &PanelBlueprint::new().with_state(PanelState::Collapsed))
+            .log(
+                panel,
+                &PanelBlueprint::new().with_state(PanelState::Collapsed),
+            )
             .map_err(error)?;
     }
     blueprint
@@ -279,9 +289,11 @@ pub(super) fn send_default(
             "time_panel",
             &TimePanelBlueprint::new()
                 .with_state(PanelState::Collapsed)
-                .with_timeline(rerun::external::re_sdk_types::blueprint::components::TimelineName(
-                    SIM_TIME.into(),
-                )),
+                .with_timeline(
+                    rerun::external::re_sdk_types::blueprint::components::TimelineName(
+                        SIM_TIME.into(),
+                    ),
+                ),
         )
         .map_err(error)?;
     blueprint

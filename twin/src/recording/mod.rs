@@ -24,6 +24,7 @@
 //! [`salvage`] completes what a killed run left.
 
 mod blueprint;
+mod inspect;
 mod live;
 mod plots;
 mod salvage;
@@ -31,7 +32,8 @@ mod study;
 mod writer;
 
 pub use controllers::EventLevel;
-pub use plots::{write_plot, Plot2D, PlotGeometry, PlotLayer};
+pub use inspect::{inspect, RecordingContents};
+pub use plots::{write_plot, Plot2D, PlotAxis, PlotGeometry, PlotLayer};
 pub use salvage::{salvage, SalvageReport};
 pub use study::{write_study_plots, Histogram, Scatter, StudyPlots};
 
@@ -224,7 +226,6 @@ pub enum LiveViewer {
     Spawn,
 }
 
-
 #[derive(Debug, thiserror::Error)]
 pub enum RecordingError {
     #[error("cannot create the recording {}: {reason}", path.display())]
@@ -319,7 +320,10 @@ impl MarkerBuffer {
     fn add(&mut self, sample: usize, [x, y]: [f64; 2]) {
         let point = [x as f32, y as f32];
         self.positions.extend_from_slice(&point);
-        if self.trace.is_none() || sample % self.stride != 0 || !point.iter().all(|v| v.is_finite()) {
+        if self.trace.is_none()
+            || !sample.is_multiple_of(self.stride)
+            || !point.iter().all(|v| v.is_finite())
+        {
             return;
         }
         self.trace_points.push(point);
@@ -447,7 +451,7 @@ impl Recorder {
             marker.add(self.samples, position);
         }
         self.samples += 1;
-        if self.samples % TRACE_EVERY == 0 {
+        if self.samples.is_multiple_of(TRACE_EVERY) {
             self.send_traces()
                 .map_err(|reason| self.write_error(reason))?;
         }
@@ -787,10 +791,11 @@ fn log_scene(
     scene: &Scene,
 ) -> Result<(), String> {
     for drawing in &scene.drawings {
-        let strips = drawing
-            .lines
-            .iter()
-            .map(|line| line.iter().map(|&[x, y]| [x as f32, y as f32]).collect::<Vec<_>>());
+        let strips = drawing.lines.iter().map(|line| {
+            line.iter()
+                .map(|&[x, y]| [x as f32, y as f32])
+                .collect::<Vec<_>>()
+        });
         let [r, g, b] = drawing.color;
         log_static(
             scene_entity("scene", &drawing.name),
@@ -870,7 +875,11 @@ fn send_marker(
     times: &[f64],
 ) -> Result<(), String> {
     let kept: Vec<usize> = (0..steps.len())
-        .filter(|&i| marker.positions[2 * i..2 * i + 2].iter().all(|v| v.is_finite()))
+        .filter(|&i| {
+            marker.positions[2 * i..2 * i + 2]
+                .iter()
+                .all(|v| v.is_finite())
+        })
         .collect();
     if kept.is_empty() {
         return Ok(());

@@ -61,13 +61,31 @@ fn layout(links: usize, groups: &[(&str, usize)]) -> RecordingLayout {
         links: (0..links)
             .map(|i| (format!("link {i}"), shapes(i)))
             .collect(),
-        series: groups
-            .iter()
-            .map(|&(path, n)| SeriesGroup {
-                path: path.to_owned(),
-                names: (0..n).map(|k| format!("s{k}")).collect(),
-            })
-            .collect(),
+        scene: None,
+        plots: {
+            let mut next = 0;
+            groups
+                .iter()
+                .map(|&(path, n)| {
+                    let series = (0..n)
+                        .map(|k| {
+                            next += 1;
+                            SeriesSpec {
+                                name: format!("s{k}"),
+                                role: SeriesRole::Other,
+                                value: next - 1,
+                            }
+                        })
+                        .collect();
+                    PlotSpec {
+                        tab: PlotTab::Process,
+                        name: path.to_owned(),
+                        unit: controllers::Unit::Dimensionless,
+                        series,
+                    }
+                })
+                .collect()
+        },
     }
 }
 
@@ -120,7 +138,7 @@ fn records_samples_and_events_to_a_valid_file() {
     let mut rec = Recorder::create(&path, &layout).expect("create");
     for step in 0..5000 {
         let t = step as f64 * 1e-3;
-        rec.push(step, t, &poses(2, t), &[t.sin(), t.cos(), 2.0 * t])
+        rec.push(step, t, &poses(2, t), &[t.sin(), t.cos(), 2.0 * t], &[])
             .expect("push");
         if step == 2500 {
             rec.event(step, t, EventLevel::Warning, "effort saturated")
@@ -155,7 +173,7 @@ fn non_finite_values_and_poses_are_recorded() {
         } else {
             (f64::NAN, vec![Pose2::new(f64::INFINITY, f64::NAN, 1e300)])
         };
-        rec.push(step, t, &pose, &[value, f64::NEG_INFINITY])
+        rec.push(step, t, &pose, &[value, f64::NEG_INFINITY], &[])
             .expect("push");
     }
     rec.event(3000, f64::NAN, EventLevel::Error, "diverged")
@@ -172,7 +190,7 @@ fn dropping_without_finish_leaves_no_file() {
     let mut rec = Recorder::create(&path, &layout(2, &[("process", 3)])).expect("create");
     for step in 0..(FLUSH_EVERY as i64 + 1234) {
         let t = step as f64 * 1e-3;
-        rec.push(step, t, &poses(2, t), &[1.0, 2.0, 3.0])
+        rec.push(step, t, &poses(2, t), &[1.0, 2.0, 3.0], &[])
             .expect("push");
     }
     let part = rec.part_path().to_path_buf();
@@ -284,7 +302,7 @@ fn an_empty_layout_records_a_valid_file() {
     layout.scenario_toml = String::new();
     let mut rec = Recorder::create(&path, &layout).expect("create");
     for step in 0..10 {
-        rec.push(step, step as f64, &[], &[]).expect("push");
+        rec.push(step, step as f64, &[], &[], &[]).expect("push");
     }
     rec.event(3, 3.0, EventLevel::Info, "nothing happens")
         .expect("event");
@@ -346,7 +364,7 @@ fn sixty_thousand_samples_are_cheap() {
     let pushing = Instant::now();
     let push_cpu_start = thread_cpu_ns();
     for (step, (link_poses, values)) in inputs.iter().enumerate() {
-        rec.push(step as i64, step as f64 * 1e-3, link_poses, values)
+        rec.push(step as i64, step as f64 * 1e-3, link_poses, values, &[])
             .expect("push");
     }
     let pushed = pushing.elapsed();
@@ -426,7 +444,7 @@ fn record(path: &Path, samples: i64) -> RecordingOutcome {
     let mut rec = Recorder::create(path, &layout(2, &[("task", 3)])).expect("create");
     for step in 0..samples {
         let t = step as f64 * 1e-3;
-        rec.push(step, t, &poses(2, t), &[t, t.sin(), t.cos()])
+        rec.push(step, t, &poses(2, t), &[t, t.sin(), t.cos()], &[])
             .expect("push");
     }
     rec.finish().expect("finish")
@@ -444,7 +462,7 @@ fn concurrent_recorders_of_one_path_leave_one_complete_file() {
             start.wait();
             for step in 0..samples {
                 let t = step as f64 * 1e-3;
-                rec.push(step, t, &poses(2, t), &[t, t.sin(), t.cos()])
+                rec.push(step, t, &poses(2, t), &[t, t.sin(), t.cos()], &[])
                     .expect("push");
             }
             (samples, rec.finish().expect("finish"))
@@ -537,7 +555,7 @@ fn write_failure_child() {
     let failure = (0..1_000_000).find_map(|step| {
         let t = step as f64 * 1e-3;
         let values: Vec<f64> = (0..30).map(|_| noise()).collect();
-        rec.push(step, t, &poses(5, t), &values)
+        rec.push(step, t, &poses(5, t), &values, &[])
             .err()
             .map(|err| (step, err))
     });
@@ -552,7 +570,7 @@ fn write_failure_child() {
         "found only at sample {step}"
     );
     assert!(
-        rec.push(step + 1, 0.0, &[], &[]).is_err(),
+        rec.push(step + 1, 0.0, &[], &[], &[]).is_err(),
         "the failure stays"
     );
     assert!(rec.finish().is_err(), "a failed recording cannot finish");
@@ -578,7 +596,7 @@ fn an_unreachable_live_viewer_costs_neither_the_file_nor_time() {
     for step in 0..100_000 {
         let t = step as f64 * 1e-3;
         let values: Vec<f64> = (0..30).map(|k| (t * k as f64).sin()).collect();
-        rec.push(step, t, &poses(5, t), &values).expect("push");
+        rec.push(step, t, &poses(5, t), &values, &[]).expect("push");
     }
     let pushed = pushing.elapsed();
     let finishing = Instant::now();
@@ -742,7 +760,7 @@ fn aborted_run_child() {
         Recorder::create(&dir.join("run.rrd"), &layout(2, &[("task", 3)])).expect("create");
     for step in 0..10_000 {
         let t = step as f64 * 1e-3;
-        rec.push(step, t, &poses(2, t), &[t, t.sin(), t.cos()])
+        rec.push(step, t, &poses(2, t), &[t, t.sin(), t.cos()], &[])
             .expect("push");
     }
     // What was sent reaches the file, as it would have by the time of a kill.
@@ -814,7 +832,7 @@ fn a_live_viewer_gets_the_run_and_losing_it_costs_nothing() {
             if step == 10_000 {
                 halfway();
             }
-            rec.push(step, t, &poses(2, t), &[t, t.sin(), t.cos()])
+            rec.push(step, t, &poses(2, t), &[t, t.sin(), t.cos()], &[])
                 .expect("push");
         }
         let finishing = Instant::now();

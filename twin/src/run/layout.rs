@@ -83,7 +83,11 @@ impl SignalLayout {
         let machine_diagnostics = parts.machine_diagnostics.len();
         let mut diagnostic_specs = parts.machine_diagnostics;
         diagnostic_specs.extend(mechanism.loops.iter().map(|l| {
-            SignalSpec::new(format!("loop_gap/{}", l.name), Unit::Micrometre, "loop gaps")
+            SignalSpec::new(
+                format!("loop_gap/{}", l.name),
+                Unit::Micrometre,
+                "loop gaps",
+            )
         }));
         diagnostic_specs.push(SignalSpec::new(
             "mechanical_energy",

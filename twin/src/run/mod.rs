@@ -18,8 +18,8 @@ use crate::machines::{self, Machine, MachineError};
 use crate::mechanism::{JointMotion, Mechanism};
 use crate::physics::MechanismState;
 use crate::recording::{LiveViewer, RecordingError};
-use crate::scene::{Bounds, Scene};
 use crate::scenario::{LoadedScenario, Scenario, ScenarioError};
+use crate::scene::{Bounds, Scene};
 use crate::sensors::Sensor;
 use crate::urdf::{self, UrdfError};
 use controllers::{Actuator, Controller, ControllerError, EffortKind, PlantInterface, Registry};
@@ -277,6 +277,16 @@ impl Twin {
         self
     }
 
+    /// What a recording of this run shows: its plots (each one unit; references and commands
+    /// on the plots of what they command) and the mechanism view's scene with its fixed frame.
+    pub fn recording_plan(&self) -> (Vec<crate::recording::PlotSpec>, Scene) {
+        let sensed: Vec<bool> = self.sensors.iter().map(Option::is_some).collect();
+        (
+            record::plan(&self.layout, &sensed),
+            framed(self.machine.scene(), &self.mechanism),
+        )
+    }
+
     /// The plant as the controller sees it: its measured signals and actuators (with limits).
     pub fn plant(&self) -> &PlantInterface {
         &self.plant
@@ -351,7 +361,11 @@ impl Twin {
             scenario.name,
             scenario.machine,
             self.controller.name(),
-            fnv1a(self.loaded.toml.as_bytes()),
+            {
+                let mut digest = stats::Digest::default();
+                digest.add_bytes(self.loaded.toml.as_bytes());
+                digest.0
+            },
             scenario.dt,
             scenario.duration,
         );
@@ -429,18 +443,14 @@ fn framed(mut scene: Scene, mechanism: &Mechanism) -> Scene {
             .iter()
             .flat_map(|shape| shape.extent().map(|[x, y]| pose.apply(x, y)))
     });
-    let drawings = scene.drawings.iter().flat_map(|d| d.lines.iter().flatten().copied());
+    let drawings = scene
+        .drawings
+        .iter()
+        .flat_map(|d| d.lines.iter().flatten().copied());
     if let Some(content) = Bounds::around(links.chain(drawings), MARGIN) {
         scene.bounds = scene.bounds.union(&content);
     }
     scene
-}
-
-/// FNV-1a, 64 bits: a digest of the scenario text the recording names, to tell runs apart.
-fn fnv1a(bytes: &[u8]) -> u64 {
-    bytes.iter().fold(0xcbf2_9ce4_8422_2325, |hash, &b| {
-        (hash ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3)
-    })
 }
 
 /// A caller's observer, borrowed for as long as the run's own.

@@ -145,7 +145,14 @@ struct PlotPlan {
 }
 
 impl PlotPlan {
-    fn add(&mut self, spec: &SignalSpec, name: String, role: SeriesRole, source: Source, value: usize) {
+    fn add(
+        &mut self,
+        spec: &SignalSpec,
+        name: String,
+        role: SeriesRole,
+        source: Source,
+        value: usize,
+    ) {
         let index = match self
             .plots
             .iter()
@@ -186,7 +193,12 @@ impl PlotPlan {
                 plot.tab = if has(&[Source::Effort]) {
                     PlotTab::Efforts
                 } else if has(&[Source::Reference, Source::Internal])
-                    && has(&[Source::Machine, Source::Joint, Source::Measured, Source::Diagnostic])
+                    && has(&[
+                        Source::Machine,
+                        Source::Joint,
+                        Source::Measured,
+                        Source::Diagnostic,
+                    ])
                 {
                     PlotTab::Tracking
                 } else {
@@ -228,7 +240,7 @@ fn effort_quantity(unit: Unit) -> &'static str {
 /// The plots of a run: joints, efforts (per actuator, commanded with applied), the plant's
 /// signals (and their measurements where a sensor changes them), the reference, the
 /// controller's internals and the diagnostics.
-fn plan(layout: &SignalLayout, sensed: &[bool]) -> Vec<PlotSpec> {
+pub(super) fn plan(layout: &SignalLayout, sensed: &[bool]) -> Vec<PlotSpec> {
     let at = Offsets::of(layout);
     let specs = &layout.specs;
     let mut plan = PlotPlan::default();
@@ -252,21 +264,52 @@ fn plan(layout: &SignalLayout, sensed: &[bool]) -> Vec<PlotSpec> {
     for (k, spec) in specs.signals.iter().enumerate() {
         if sensed.get(k).copied().unwrap_or(false) {
             let name = format!("{} measured", spec.name);
-            plan.add(spec, name, SeriesRole::Measured, Source::Measured, at.measured + k);
+            plan.add(
+                spec,
+                name,
+                SeriesRole::Measured,
+                Source::Measured,
+                at.measured + k,
+            );
         }
     }
     for (j, [position, velocity]) in specs.joints.iter().enumerate() {
-        plan.add(position, position.name.clone(), SeriesRole::True, Source::Joint, j);
+        plan.add(
+            position,
+            position.name.clone(),
+            SeriesRole::True,
+            Source::Joint,
+            j,
+        );
         let value = at.velocities + j;
-        plan.add(velocity, velocity.name.clone(), SeriesRole::True, Source::Joint, value);
+        plan.add(
+            velocity,
+            velocity.name.clone(),
+            SeriesRole::True,
+            Source::Joint,
+            value,
+        );
     }
-    for (a, (joint, [commanded, applied])) in layout.actuators.iter().zip(&specs.efforts).enumerate() {
+    for (a, (joint, [commanded, applied])) in
+        layout.actuators.iter().zip(&specs.efforts).enumerate()
+    {
         for (unit, role, name, value) in [
-            (*commanded, SeriesRole::Commanded, "commanded", at.commanded + a),
+            (
+                *commanded,
+                SeriesRole::Commanded,
+                "commanded",
+                at.commanded + a,
+            ),
             (*applied, SeriesRole::Applied, "applied", at.applied + a),
         ] {
             let spec = SignalSpec::new(name, unit, format!("{joint} {}", effort_quantity(unit)));
-            plan.add(&spec, format!("{joint} {name}"), role, Source::Effort, value);
+            plan.add(
+                &spec,
+                format!("{joint} {name}"),
+                role,
+                Source::Effort,
+                value,
+            );
         }
     }
     for (k, spec) in specs.internals.iter().enumerate() {
@@ -277,11 +320,23 @@ fn plan(layout: &SignalLayout, sensed: &[bool]) -> Vec<PlotSpec> {
         } else {
             SeriesRole::Other
         };
-        plan.add(spec, spec.name.clone(), role, Source::Internal, at.internals + k);
+        plan.add(
+            spec,
+            spec.name.clone(),
+            role,
+            Source::Internal,
+            at.internals + k,
+        );
     }
     for (k, spec) in specs.diagnostics.iter().enumerate() {
         let value = at.diagnostics + k;
-        plan.add(spec, spec.name.clone(), SeriesRole::Other, Source::Diagnostic, value);
+        plan.add(
+            spec,
+            spec.name.clone(),
+            SeriesRole::Other,
+            Source::Diagnostic,
+            value,
+        );
     }
     plan.finish()
 }

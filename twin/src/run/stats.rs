@@ -17,6 +17,40 @@ pub(super) struct RunStats {
     energy_start: Option<f64>,
     energy_drift_max: f64,
     final_internals: Vec<f64>,
+    /// Per actuator, the effort commanded at each control update.
+    commands: Vec<Vec<f64>>,
+}
+
+/// The high-frequency content of a command is what a centred moving average over this many
+/// control periods leaves out: content above about 1/20 of the control rate.
+const HF_WINDOW: usize = 21;
+/// Above this ratio of high-frequency to total RMS, a command chatters: the summary warns.
+const HF_WARNING_RATIO: f64 = 0.2;
+
+/// RMS of `command` minus its centred moving average over [`HF_WINDOW`] samples, over the RMS of
+/// `command`, both over the samples where the window fits: 0 for a smooth command, towards 1
+/// for one switching every period. 0 when the command is too short or zero.
+pub(super) fn high_frequency_ratio(command: &[f64]) -> f64 {
+    let half = HF_WINDOW / 2;
+    if command.len() < HF_WINDOW {
+        return 0.0;
+    }
+    let mut prefix = Vec::with_capacity(command.len() + 1);
+    prefix.push(0.0);
+    for &value in command {
+        prefix.push(prefix.last().copied().unwrap_or(0.0) + value);
+    }
+    let (mut residual, mut total) = (0.0, 0.0);
+    for i in half..command.len() - half {
+        let mean = (prefix[i + half + 1] - prefix[i - half]) / HF_WINDOW as f64;
+        residual += (command[i] - mean).powi(2);
+        total += command[i].powi(2);
+    }
+    if total > 0.0 {
+        (residual / total).sqrt()
+    } else {
+        0.0
+    }
 }
 
 impl Observer for RunStats {
@@ -27,6 +61,7 @@ impl Observer for RunStats {
             has_loops: layout.loop_count() > 0,
             peak_effort: vec![0.0; layout.actuators.len()],
             saturated_samples: vec![0; layout.actuators.len()],
+            commands: vec![Vec::new(); layout.actuators.len()],
             ..Self::default()
         };
         Ok(())
@@ -37,6 +72,11 @@ impl Observer for RunStats {
         for (a, effort) in view.applied.iter().enumerate() {
             self.peak_effort[a] = self.peak_effort[a].max(effort.abs());
             self.saturated_samples[a] += usize::from(view.saturated[a]);
+        }
+        if view.control_update {
+            for (command, &effort) in self.commands.iter_mut().zip(view.commanded) {
+                command.push(effort);
+            }
         }
         for gap in &view.state.loop_gaps {
             self.loop_gap_max = self.loop_gap_max.max(*gap);
@@ -52,8 +92,18 @@ impl Observer for RunStats {
 
     fn finish(&mut self) -> Result<Findings, ObserverError> {
         let mut metrics = Vec::new();
+        let mut warnings = Vec::new();
         for (a, joint) in self.actuators.iter().enumerate() {
             metrics.push((format!("peak_effort/{joint}"), self.peak_effort[a]));
+            let ratio = high_frequency_ratio(&self.commands[a]);
+            metrics.push((format!("effort_hf_ratio/{joint}"), ratio));
+            if ratio > HF_WARNING_RATIO {
+                warnings.push(format!(
+                    "the command on {joint} chatters: {:.0} % of its RMS is above 1/20 of the \
+                     control rate (effort_hf_ratio/{joint} = {ratio:.3})",
+                    100.0 * ratio
+                ));
+            }
             metrics.push((
                 format!("saturated_fraction/{joint}"),
                 self.saturated_samples[a] as f64 / self.samples.max(1) as f64,
@@ -70,10 +120,7 @@ impl Observer for RunStats {
                 .zip(&self.final_internals)
                 .map(|(name, value)| (format!("controller_final/{name}"), *value)),
         );
-        Ok(Findings {
-            metrics,
-            warnings: Vec::new(),
-        })
+        Ok(Findings { metrics, warnings })
     }
 }
 
@@ -89,7 +136,11 @@ impl Default for Digest {
 
 impl Digest {
     pub fn add(&mut self, value: f64) {
-        for byte in value.to_bits().to_le_bytes() {
+        self.add_bytes(&value.to_bits().to_le_bytes());
+    }
+
+    pub fn add_bytes(&mut self, bytes: &[u8]) {
+        for &byte in bytes {
             self.0 = (self.0 ^ u64::from(byte)).wrapping_mul(0x0100_0000_01b3);
         }
     }
@@ -109,5 +160,28 @@ impl Digest {
         self.add_all(view.applied);
         self.add_all(view.internals);
         self.add_all(view.diagnostics);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::high_frequency_ratio;
+
+    #[test]
+    fn a_smooth_command_has_no_high_frequency_content_and_a_switching_one_has() {
+        let smooth: Vec<f64> = (0..1000).map(|k| 5.0 + (k as f64 * 1e-3).sin()).collect();
+        assert!(high_frequency_ratio(&smooth) < 1e-3);
+        let switching: Vec<f64> = (0..1000)
+            .map(|k| if k % 2 == 0 { 20.0 } else { -20.0 })
+            .collect();
+        assert!(high_frequency_ratio(&switching) > 0.9);
+        // A ±40 % sawtooth of period 10 control periods on a steady command.
+        let sawtooth: Vec<f64> = (0..1000)
+            .map(|k| 1.0 + 0.4 * ((k % 10) as f64 / 5.0 - 1.0))
+            .collect();
+        let ratio = high_frequency_ratio(&sawtooth);
+        assert!(ratio > 0.2 && ratio < 0.3, "{ratio}");
+        assert_eq!(high_frequency_ratio(&[1.0; 5]), 0.0);
+        assert_eq!(high_frequency_ratio(&[0.0; 100]), 0.0);
     }
 }
