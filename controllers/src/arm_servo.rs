@@ -4,12 +4,21 @@
 //! controller chooses, and one PID position servo per joint whose output is the joint drive's
 //! **current command, in A** (the arm's drives take currents; see the `arm` machine).
 //!
-//! Design: each joint is taken as an inertia `J` driven through `G·k_t` N·m per ampere; the PID
-//! `i* = K_p·e + K_i·∫e + K_d·ė` places the three closed-loop poles at `−ω` (bandwidth ω):
-//! `K_d = 3ωJ/(G·k_t)`, `K_p = 3ω²J/(G·k_t)`, `K_i = ω³J/(G·k_t)`. Gravity and the cutting
-//! force's reaction are disturbances the integral takes up. The command is clipped to the drive's
-//! current limit, `effort_limit/(G·k_t)` (the URDF effort limit is the drive's peak torque), and
-//! the integral stops while it is clipped.
+//! Design (computed torque, the inverse-dynamics law of robot control): the joints are coupled
+//! through the arm's mass matrix `M(q)`, so no fixed per-joint inertia describes them — stretched
+//! out, the inertia the elbow feels, `1/(M⁻¹)₂₂` = 0.085 kg·m², is a twelfth of `M₂₂` and a ninth
+//! of its `M₂₂` on the contour — and a per-joint PID designed for one pose chatters rail to rail
+//! at another. The servo therefore works per unit inertia: each joint's PID asks for the
+//! acceleration `a = q̈_r + K_d·ė + K_p·e + K_i·∫e` (1), whose three closed-loop poles
+//! `s³ + K_d s² + K_p s + K_i = (s + ω)³` sit at `−ω` (bandwidth ω) with `K_d = 3ω`, `K_p = 3ω²`,
+//! `K_i = ω³` (2); the drives are asked for the joint torques that give it,
+//! `i* = (G·k_t)⁻¹·M̂(q)·a` (3), `M̂` the rigid-body model of the arm from the servo's own link
+//! parameters ([`models::serial_chain`]). With `M̂ = M` each joint error obeys
+//! `ë = −(K_d·ė + K_p·e + K_i·∫e)` at every pose. Gravity, the Coriolis terms and the cutting
+//! force's reaction are disturbances the integral takes up. The commands are kept within the
+//! drives' current limits, `effort_limit/(G·k_t)` (the URDF effort limit is the drive's peak
+//! torque), by clipping the joints that pass theirs and giving the others the accelerations they
+//! ask for (`limited_torques`); a clipped joint's integral stops.
 //!
 //! Cycle: from wherever the arm is at the first update, a quintic in joint space brings it in
 //! `approach_time` to a clearance point `clearance` off the contour's first point on the side
@@ -22,6 +31,7 @@
 use crate::event::Event;
 use crate::{ControllerError, Measurement, PlantInterface, SignalSpec, Unit};
 use models::arm_path::{ArmGeometry, Contour, ContourPath, Elbow, JointPath, PathCursor};
+use models::serial_chain::{solve, ChainLink, SerialChain};
 use serde::Deserialize;
 
 /// The arm's joints, in the order of every per-joint array.
@@ -52,8 +62,17 @@ pub struct ServoParams {
     pub elbow: Elbow,
     /// The part contour: the program's control points are taken along it.
     pub contour: Contour,
-    /// Per joint: the inertia the design assumes, kg·m².
-    pub inertia: [f64; 3],
+    /// Per link (upper arm, forearm, hand with the spindle housing): mass, kg.
+    pub link_masses: [f64; 3],
+    /// Per link: distance of its centre of mass from its joint, along the link, m.
+    pub link_centres: [f64; 3],
+    /// Per link: moment of inertia about z through its centre of mass, kg·m².
+    pub link_inertias: [f64; 3],
+    /// The cutter (spindle rotor, holder, end mill) on the spindle axis, `arm.hand` from the
+    /// wrist: mass, kg.
+    pub tool_mass: f64,
+    /// The cutter's moment of inertia about the spindle axis, kg·m².
+    pub tool_inertia: f64,
     /// Per joint: joint torque per ampere of its drive, `G·k_t`, N·m/A.
     pub torque_per_ampere: [f64; 3],
     /// Closed-loop bandwidth ω of every joint servo, rad/s.
@@ -68,14 +87,18 @@ pub struct ServoParams {
 }
 
 impl Default for ServoParams {
-    /// The arm of `urdf/arm.urdf` with its drives (notes in `twin/src/machines/arm.rs`); inertias about each joint
-    /// on the default contour, to the nearest round figure.
+    /// The arm of `urdf/arm.urdf` with its drives (notes in `twin/src/machines/arm.rs`): links
+    /// and cutter as the URDF's inertials.
     fn default() -> Self {
         Self {
             arm: ArmGeometry::default(),
             elbow: Elbow::Up,
             contour: Contour::default(),
-            inertia: [2.5, 0.8, 0.05],
+            link_masses: [9.0, 5.0, 3.5],
+            link_centres: [0.18, 0.16, 0.09],
+            link_inertias: [0.15, 0.06, 0.01],
+            tool_mass: 0.4,
+            tool_inertia: 2e-4,
             torque_per_ampere: [4.2, 3.0, 1.0],
             bandwidth: 80.0,
             approach_time: 2.0,
@@ -85,7 +108,8 @@ impl Default for ServoParams {
     }
 }
 
-/// PID gains of one joint, in A per rad, A per rad·s and A per rad/s.
+/// PID gains per unit inertia, eq (2): acceleration demand in rad/s² per rad, per rad·s and per
+/// rad/s.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct JointGains {
     pub kp: f64,
@@ -96,15 +120,20 @@ pub struct JointGains {
 /// The servo design and the program built from the parameters.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ServoDesign {
-    pub gains: [JointGains; 3],
+    /// The gains of every joint's PID, eq (1).
+    pub gains: JointGains,
+    /// The arm's rigid-body model `M̂(q)` of eq (3) comes from: the three joints and the cutter
+    /// welded on the spindle axis (its joint held at 0).
+    pub model: SerialChain,
     pub program: JointPath,
     /// Joint angles at the clearance point above the contour's start.
     pub clearance_point: [f64; 3],
-    /// Open-loop crossover of the slowest joint servo, rad/s (`|L(jω_c)| = 1`).
+    /// Open-loop crossover of every (decoupled) joint servo, rad/s (`|L(jω_c)| = 1`).
     pub crossover: f64,
 }
 
-/// Gains by pole placement and the program through the inverse kinematics.
+/// Gains by pole placement (eq 2), the arm's model and the program through the inverse
+/// kinematics.
 pub fn design(controller: &str, params: &ServoParams) -> Result<ServoDesign, ControllerError> {
     let bad = |reason: String| ControllerError::BadParameters {
         controller: controller.into(),
@@ -122,31 +151,23 @@ pub fn design(controller: &str, params: &ServoParams) -> Result<ServoDesign, Con
     if !(params.settle_time >= 0.0 && params.settle_time.is_finite()) {
         return Err(bad("servo.settle_time must be finite and ≥ 0".into()));
     }
-    let mut gains = [JointGains {
-        kp: 0.0,
-        ki: 0.0,
-        kd: 0.0,
-    }; 3];
+    let gains = JointGains {
+        kp: 3.0 * w * w,
+        ki: w.powi(3),
+        kd: 3.0 * w,
+    };
+    if !gains.ki.is_finite() {
+        return Err(bad(format!(
+            "servo.bandwidth {w} gives gains that overflow"
+        )));
+    }
     for (i, joint) in JOINTS.iter().enumerate() {
-        let j = positive(format!("servo.inertia of {joint}"), params.inertia[i])?;
-        let k = positive(
+        positive(
             format!("servo.torque_per_ampere of {joint}"),
             params.torque_per_ampere[i],
         )?;
-        gains[i] = JointGains {
-            kp: 3.0 * w * w * j / k,
-            ki: w.powi(3) * j / k,
-            kd: 3.0 * w * j / k,
-        };
-        if ![gains[i].kp, gains[i].ki, gains[i].kd]
-            .iter()
-            .all(|g| g.is_finite())
-        {
-            return Err(bad(format!(
-                "servo.bandwidth, inertia and torque_per_ampere of {joint} give gains that overflow"
-            )));
-        }
     }
+    let model = model(params).map_err(bad)?;
     let program = JointPath::new(&params.arm, &params.contour, params.elbow)
         .map_err(|e| bad(e.to_string()))?;
     if !(params.clearance >= 0.0 && params.clearance.is_finite()) {
@@ -165,14 +186,67 @@ pub fn design(controller: &str, params: &ServoParams) -> Result<ServoDesign, Con
         .map_err(|e| bad(format!("servo.clearance: {e}")))?;
     Ok(ServoDesign {
         gains,
+        model,
         program,
         clearance_point,
         crossover: crossover(w),
     })
 }
 
-/// Crossover of `L(s) = ω(3s² + 3ωs + ω²)/s³` (the PID over the inertia, per unit design
-/// inertia): `|L(jx)| = 1` solved by bisection.
+/// The arm as a planar serial chain (joint frames from `params.arm`, links from the servo's link
+/// parameters, the cutter a fourth link on the spindle axis), checked so that `M̂(q)` is positive
+/// definite at every pose: link masses and inertias > 0, the cutter's ≥ 0.
+fn model(params: &ServoParams) -> Result<SerialChain, String> {
+    let arm = &params.arm;
+    let lengths = [arm.upper, arm.fore, arm.hand];
+    let mut links = Vec::with_capacity(4);
+    for (i, link) in ["upper arm", "forearm", "hand"].iter().enumerate() {
+        let (mass, centre, izz) = (
+            params.link_masses[i],
+            params.link_centres[i],
+            params.link_inertias[i],
+        );
+        if !(mass > 0.0 && izz > 0.0 && mass.is_finite() && izz.is_finite() && centre.is_finite()) {
+            return Err(format!(
+                "servo.link_masses and link_inertias of the {link} must be finite and > 0, \
+                 its link_centres finite (got {mass} kg, {izz} kg·m², {centre} m)"
+            ));
+        }
+        let origin = if i == 0 {
+            [arm.base[0], arm.base[1], 0.0]
+        } else {
+            [lengths[i - 1], 0.0, 0.0]
+        };
+        links.push(ChainLink {
+            origin,
+            mass,
+            centre_of_mass: [centre, 0.0],
+            izz,
+            damping: 0.0,
+        });
+    }
+    let (mass, izz) = (params.tool_mass, params.tool_inertia);
+    if !(mass >= 0.0 && izz >= 0.0 && mass.is_finite() && izz.is_finite()) {
+        return Err(format!(
+            "servo.tool_mass and tool_inertia must be finite and ≥ 0 (got {mass} kg, {izz} kg·m²)"
+        ));
+    }
+    links.push(ChainLink {
+        origin: [arm.hand, 0.0, 0.0],
+        mass,
+        centre_of_mass: [0.0, 0.0],
+        izz,
+        damping: 0.0,
+    });
+    // Only M̂(q) is used: gravity is a disturbance the integral takes up.
+    Ok(SerialChain {
+        links,
+        gravity: [0.0, 0.0],
+    })
+}
+
+/// Crossover of `L(s) = ω(3s² + 3ωs + ω²)/s³` (the PID of eq 2 over the unit inertia):
+/// `|L(jx)| = 1` solved by bisection.
 fn crossover(w: f64) -> f64 {
     let magnitude =
         |x: f64| w * ((w * w - 3.0 * x * x).powi(2) + (3.0 * w * x).powi(2)).sqrt() / x.powi(3);
@@ -343,25 +417,97 @@ impl ArmServo {
                 )
             }
         };
+        let velocity = std::array::from_fn(|i| measurement.get(self.velocities[i]));
+        self.servo(q, velocity, (reference, rate, acceleration), period);
         for i in 0..3 {
-            let g = self.design.gains[i];
-            let error = reference[i] - q[i];
-            let rate_error = rate[i] - measurement.get(self.velocities[i]);
-            let feedforward =
-                acceleration[i] * self.params.inertia[i] / self.params.torque_per_ampere[i];
-            let limit = self.current_limits[i];
-            let candidate = self.integrals[i] + error * period;
-            let unclipped = g.kp * error + g.ki * candidate + g.kd * rate_error + feedforward;
-            if unclipped.abs() <= limit {
-                self.integrals[i] = candidate;
-            }
-            let command = g.kp * error + g.ki * self.integrals[i] + g.kd * rate_error + feedforward;
-            self.commands[i] = command.clamp(-limit, limit);
-            self.errors[i] = error;
             efforts[self.actuators[i]] = self.commands[i];
         }
         self.reference = reference;
         event
+    }
+
+    /// The joint servos, eqs (1) and (3): the PID's acceleration demand through `M̂(q)` to
+    /// current commands within the limits ([`limited_torques`]); a joint's integral stops while
+    /// its command is clipped.
+    fn servo(&mut self, q: [f64; 3], velocity: [f64; 3], reference: Reference, period: f64) {
+        let (position, rate, acceleration) = reference;
+        let g = self.design.gains;
+        let mass = self.design.model.mass_matrix(&[q[0], q[1], q[2], 0.0]);
+        let torque_per_ampere = self.params.torque_per_ampere;
+        let limits = std::array::from_fn(|i| self.current_limits[i] * torque_per_ampere[i]);
+        let errors: [f64; 3] = std::array::from_fn(|i| position[i] - q[i]);
+        let torques = |integrals: [f64; 3]| {
+            let demand = std::array::from_fn(|i| {
+                acceleration[i]
+                    + g.kd * (rate[i] - velocity[i])
+                    + g.kp * errors[i]
+                    + g.ki * integrals[i]
+            });
+            limited_torques(&mass, demand, limits)
+        };
+        let candidate = std::array::from_fn(|i| self.integrals[i] + errors[i] * period);
+        let (_, clipped) = torques(candidate);
+        for i in 0..3 {
+            if !clipped[i] {
+                self.integrals[i] = candidate[i];
+            }
+        }
+        let (torque, _) = torques(self.integrals);
+        self.commands = std::array::from_fn(|i| torque[i] / torque_per_ampere[i]);
+        self.errors = errors;
+    }
+}
+
+/// Eq (3) within the drives' torque limits: `τ = M̂·a`, except that a joint whose torque would
+/// pass its limit is held at the limit and its acceleration left to follow, while the others
+/// still get the accelerations they demand — `M̂·a = τ` solved for the clipped joints'
+/// accelerations and the free joints' torques, clipping the joint furthest over its limit until
+/// none is (at most four rounds). Clamping each torque of `M̂·a` on its own would hand the others
+/// the torques of an acceleration the clipped joint cannot make: a shoulder at its limit would
+/// throw the elbow and wrist about. Returns the torques and which joints are clipped.
+fn limited_torques(mass: &[Vec<f64>], demand: [f64; 3], limits: [f64; 3]) -> ([f64; 3], [bool; 3]) {
+    let (mut torques, mut clipped) = ([0.0; 3], [false; 3]);
+    loop {
+        // Unknowns: a_k of the clipped joints k, τ_k of the free ones.
+        let system = (0..3)
+            .map(|i| {
+                (0..3)
+                    .map(|k| match (clipped[k], i == k) {
+                        (true, _) => mass[i][k],
+                        (false, true) => -1.0,
+                        (false, false) => 0.0,
+                    })
+                    .collect()
+            })
+            .collect();
+        let rhs = (0..3)
+            .map(|i| {
+                let known: f64 = (0..3)
+                    .filter(|&k| !clipped[k])
+                    .map(|k| mass[i][k] * demand[k])
+                    .sum();
+                if clipped[i] {
+                    torques[i] - known
+                } else {
+                    -known
+                }
+            })
+            .collect();
+        let unknowns = solve(system, rhs);
+        let free: Vec<usize> = (0..3).filter(|&i| !clipped[i]).collect();
+        free.iter().for_each(|&i| torques[i] = unknowns[i]);
+        let excess = |i: &&usize| torques[**i].abs() / limits[**i];
+        match free
+            .iter()
+            .filter(|i| excess(i) > 1.0)
+            .max_by(|a, b| excess(a).total_cmp(&excess(b)))
+        {
+            Some(&i) => {
+                torques[i] = torques[i].clamp(-limits[i], limits[i]);
+                clipped[i] = true;
+            }
+            None => return (torques, clipped),
+        }
     }
 }
 
@@ -403,13 +549,10 @@ mod tests {
     #[test]
     fn gains_place_a_triple_pole() {
         let d = design("test", &ServoParams::default()).unwrap();
-        let p = ServoParams::default();
-        let (w, j, k) = (p.bandwidth, p.inertia[0], p.torque_per_ampere[0]);
-        // J s³ + k(K_d s² + K_p s + K_i) = J (s + ω)³.
-        let g = d.gains[0];
-        assert!((k * g.kd / j - 3.0 * w).abs() < 1e-9);
-        assert!((k * g.kp / j - 3.0 * w * w).abs() < 1e-6);
-        assert!((k * g.ki / j - w.powi(3)).abs() < 1e-3);
+        let w = ServoParams::default().bandwidth;
+        // s³ + K_d s² + K_p s + K_i = (s + ω)³.
+        let g = d.gains;
+        assert_eq!([g.kd, g.kp, g.ki], [3.0 * w, 3.0 * w * w, w.powi(3)]);
         // The crossover of the triple-pole PID loop lies near 3.4 ω.
         assert!(
             d.crossover > 3.0 * w && d.crossover < 4.0 * w,
@@ -427,10 +570,15 @@ mod tests {
         })
         .contains("bandwidth"));
         assert!(err(ServoParams {
-            inertia: [1.0, -1.0, 1.0],
+            link_masses: [1.0, -1.0, 1.0],
             ..Default::default()
         })
-        .contains("inertia of elbow"));
+        .contains("link_masses and link_inertias of the forearm"));
+        assert!(err(ServoParams {
+            tool_mass: f64::NAN,
+            ..Default::default()
+        })
+        .contains("tool_mass"));
         let far = ServoParams {
             contour: Contour {
                 start: [0.9, -0.2],
@@ -439,6 +587,106 @@ mod tests {
             ..Default::default()
         };
         assert!(err(far).contains("out of the arm's reach"));
+    }
+
+    /// The model's mass matrix at the stretched pose, by hand: `M₃₃` is the hand's and the
+    /// cutter's inertia about the wrist.
+    #[test]
+    fn model_is_the_urdf_arm() {
+        let m = model(&ServoParams::default())
+            .unwrap()
+            .mass_matrix(&[0.0; 4]);
+        let wrist = 0.01 + 3.5 * 0.09f64.powi(2) + 2e-4 + 0.4 * 0.12f64.powi(2);
+        assert!((m[2][2] - wrist).abs() < 1e-12, "{m:?}");
+        assert!((m[0][1] - m[1][0]).abs() < 1e-12, "{m:?}");
+    }
+
+    /// The servo on a simulated arm — the URDF's links and joint damping under gravity, each
+    /// drive its 2000 rad/s current loop (`twin/src/machines/arm.rs`), 1 kHz control — from the
+    /// stretched pose the arm starts in, where the joints are most strongly coupled (the elbow
+    /// feels a twelfth of `M₂₂`): after the first 0.1 s no command moves by more than 0.5 A from
+    /// one period to the next. A per-joint PID designed for a fixed inertia chatters rail to rail
+    /// here (12.6 A per period).
+    #[test]
+    fn no_chatter_stretched_out() {
+        let link = |x: f64, mass: f64, centre: f64, izz: f64, damping: f64| ChainLink {
+            origin: [x, 0.0, 0.0],
+            mass,
+            centre_of_mass: [centre, 0.0],
+            izz,
+            damping,
+        };
+        let arm = SerialChain {
+            links: vec![
+                link(0.0, 9.0, 0.18, 0.15, 0.5),
+                link(0.40, 5.0, 0.16, 0.06, 0.3),
+                link(0.36, 3.5, 0.09, 0.01, 0.1),
+                link(0.12, 0.4, 0.0, 2e-4, 0.0),
+            ],
+            gravity: [0.0, -9.81],
+        };
+        let plant = PlantInterface {
+            machine: "arm".into(),
+            signals: JOINTS
+                .iter()
+                .flat_map(|j| [format!("{j}.position"), format!("{j}.velocity")])
+                .collect(),
+            actuators: JOINTS
+                .iter()
+                .zip([84.0, 60.0, 20.0])
+                .map(|(j, limit)| crate::Actuator {
+                    joint: j.to_string(),
+                    kind: crate::EffortKind::Torque,
+                    effort_limit: limit,
+                })
+                .collect(),
+        };
+        let params = ServoParams::default();
+        let mut servo = ArmServo::new("test", params.clone()).unwrap();
+        servo.reset(&plant).unwrap();
+        let (mut q, mut qd, mut current) = (vec![0.0; 4], vec![0.0; 4], [0.0; 3]);
+        let (mut efforts, mut worst) = ([0.0; 3], 0.0f64);
+        let lag = 1.0 - (-2000.0f64 * 1e-4).exp();
+        for k in 0..500 {
+            let signals: Vec<f64> = (0..3).flat_map(|i| [q[i], qd[i]]).collect();
+            let previous = servo.commands;
+            let m = Measurement {
+                time: k as f64 * 1e-3,
+                signals: &signals,
+            };
+            servo.update(&m, 1e-3, 0.0, &mut efforts);
+            if k >= 100 {
+                (0..3).for_each(|i| worst = worst.max((servo.commands[i] - previous[i]).abs()));
+            }
+            for _ in 0..10 {
+                current = std::array::from_fn(|i| current[i] + lag * (efforts[i] - current[i]));
+                let mut torque: Vec<f64> = (0..3)
+                    .map(|i| params.torque_per_ampere[i] * current[i])
+                    .collect();
+                torque.push(0.0);
+                arm.rk4_step(&mut q, &mut qd, &torque, 1e-4);
+            }
+        }
+        assert!(worst < 0.5, "commands move by up to {worst} A per period");
+    }
+
+    /// A shoulder asked for far more than its limit (alone it would push the elbow over its own
+    /// limit too) is held at the limit; the elbow and wrist still get the accelerations they ask
+    /// for, given the shoulder's.
+    #[test]
+    fn a_clipped_joint_leaves_the_others_their_accelerations() {
+        let mass = model(&ServoParams::default())
+            .unwrap()
+            .mass_matrix(&[0.3, -1.2, 0.4, 0.0]);
+        let demand = [500.0, 20.0, -30.0];
+        assert!((mass[1][0] * demand[0]).abs() > 60.0);
+        let (torques, clipped) = limited_torques(&mass, demand, [84.0, 60.0, 20.0]);
+        assert_eq!((torques[0], clipped), (84.0, [true, false, false]));
+        let shoulder = (84.0 - mass[0][1] * demand[1] - mass[0][2] * demand[2]) / mass[0][0];
+        for i in 1..3 {
+            let torque = mass[i][0] * shoulder + mass[i][1] * demand[1] + mass[i][2] * demand[2];
+            assert!((torque - torques[i]).abs() < 1e-9, "{torques:?}");
+        }
     }
 
     #[test]

@@ -96,11 +96,11 @@ impl SerialChain {
         torque
     }
 
-    /// q̈ under joint torques `tau` (plus the joints' damping), solving M·q̈ = τ − h.
-    pub fn acceleration(&self, q: &[f64], qd: &[f64], tau: &[f64]) -> Vec<f64> {
+    /// The joint-space mass matrix M(q), row by row: column k is the torque for q̈ = e_k at rest
+    /// without gravity.
+    pub fn mass_matrix(&self, q: &[f64]) -> Vec<Vec<f64>> {
         let n = self.links.len();
         let zero = vec![0.0; n];
-        let bias = self.inverse_dynamics(q, qd, &zero, 1.0);
         let mut mass = vec![vec![0.0; n]; n];
         for k in 0..n {
             let mut unit = zero.clone();
@@ -110,6 +110,14 @@ impl SerialChain {
                 row[k] = value;
             }
         }
+        mass
+    }
+
+    /// q̈ under joint torques `tau` (plus the joints' damping), solving M·q̈ = τ − h.
+    pub fn acceleration(&self, q: &[f64], qd: &[f64], tau: &[f64]) -> Vec<f64> {
+        let n = self.links.len();
+        let bias = self.inverse_dynamics(q, qd, &vec![0.0; n], 1.0);
+        let mass = self.mass_matrix(q);
         let rhs: Vec<f64> = (0..n)
             .map(|i| tau[i] - self.links[i].damping * qd[i] - bias[i])
             .collect();
@@ -183,8 +191,8 @@ fn cross(a: [f64; 2], b: [f64; 2]) -> f64 {
     a[0] * b[1] - a[1] * b[0]
 }
 
-/// Gaussian elimination with partial pivoting (M is small and positive definite).
-fn solve(mut a: Vec<Vec<f64>>, mut b: Vec<f64>) -> Vec<f64> {
+/// Solves the small non-singular system `a·x = b` by Gaussian elimination with partial pivoting.
+pub fn solve(mut a: Vec<Vec<f64>>, mut b: Vec<f64>) -> Vec<f64> {
     let n = b.len();
     for col in 0..n {
         let pivot = (col..n)

@@ -288,7 +288,8 @@ mod tests {
         law.force(&input(1.21, [0.1, 0.0]));
         let mut values = [0.0; 4];
         law.internal_values(&mut values);
-        assert!((values[2] - 0.02).abs() < 1e-12, "k_x = {}", values[2]);
+        // Internals: s, σ, s_x, k_x.
+        assert!((values[3] - 0.02).abs() < 1e-12, "k_x = {}", values[3]);
         // Clipped and pushing outwards: k_x freezes.
         let clipped = LawInput {
             force_limit: 1e-3,
@@ -296,7 +297,7 @@ mod tests {
         };
         law.force(&clipped);
         law.internal_values(&mut values);
-        assert!((values[2] - 0.02).abs() < 1e-12);
+        assert!((values[3] - 0.02).abs() < 1e-12);
     }
 
     #[test]

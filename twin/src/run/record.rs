@@ -148,7 +148,7 @@ impl PlotPlan {
     fn add(
         &mut self,
         spec: &SignalSpec,
-        name: String,
+        name: &str,
         role: SeriesRole,
         source: Source,
         value: usize,
@@ -176,7 +176,7 @@ impl PlotPlan {
         let name = if plot.series.iter().any(|s| s.name == name) {
             format!("{name} ({})", source_label(source))
         } else {
-            name
+            name.to_owned()
         };
         plot.series.push(SeriesSpec { name, role, value });
         sources.push(source);
@@ -237,81 +237,15 @@ fn effort_quantity(unit: Unit) -> &'static str {
     }
 }
 
-/// The plots of a run: joints, efforts (per actuator, commanded with applied), the plant's
-/// signals (and their measurements where a sensor changes them), the reference, the
+/// The plots of a run: the plant's signals (and their measurements where a sensor changes
+/// them) and the reference, the joints, the efforts (per actuator, commanded with applied), the
 /// controller's internals and the diagnostics.
 pub(super) fn plan(layout: &SignalLayout, sensed: &[bool]) -> Vec<PlotSpec> {
     let at = Offsets::of(layout);
-    let specs = &layout.specs;
     let mut plan = PlotPlan::default();
-    let machine = layout.machine_signal_range();
-    let reference = layout.reference_range();
-    for (k, spec) in specs.signals.iter().enumerate() {
-        let source = if machine.contains(&k) {
-            Source::Machine
-        } else if reference.contains(&k) {
-            Source::Reference
-        } else {
-            continue; // a joint's: drawn from the joint state below
-        };
-        let role = if source == Source::Reference {
-            SeriesRole::Reference
-        } else {
-            SeriesRole::True
-        };
-        plan.add(spec, spec.name.clone(), role, source, at.signals + k);
-    }
-    for (k, spec) in specs.signals.iter().enumerate() {
-        if sensed.get(k).copied().unwrap_or(false) {
-            let name = format!("{} measured", spec.name);
-            plan.add(
-                spec,
-                name,
-                SeriesRole::Measured,
-                Source::Measured,
-                at.measured + k,
-            );
-        }
-    }
-    for (j, [position, velocity]) in specs.joints.iter().enumerate() {
-        plan.add(
-            position,
-            position.name.clone(),
-            SeriesRole::True,
-            Source::Joint,
-            j,
-        );
-        let value = at.velocities + j;
-        plan.add(
-            velocity,
-            velocity.name.clone(),
-            SeriesRole::True,
-            Source::Joint,
-            value,
-        );
-    }
-    for (a, (joint, [commanded, applied])) in
-        layout.actuators.iter().zip(&specs.efforts).enumerate()
-    {
-        for (unit, role, name, value) in [
-            (
-                *commanded,
-                SeriesRole::Commanded,
-                "commanded",
-                at.commanded + a,
-            ),
-            (*applied, SeriesRole::Applied, "applied", at.applied + a),
-        ] {
-            let spec = SignalSpec::new(name, unit, format!("{joint} {}", effort_quantity(unit)));
-            plan.add(
-                &spec,
-                format!("{joint} {name}"),
-                role,
-                Source::Effort,
-                value,
-            );
-        }
-    }
+    plan_plant_signals(&mut plan, layout, sensed, &at);
+    plan_joints_and_efforts(&mut plan, layout, &at);
+    let specs = &layout.specs;
     for (k, spec) in specs.internals.iter().enumerate() {
         let role = if spec.name == "reference" {
             SeriesRole::Reference
@@ -320,25 +254,83 @@ pub(super) fn plan(layout: &SignalLayout, sensed: &[bool]) -> Vec<PlotSpec> {
         } else {
             SeriesRole::Other
         };
-        plan.add(
-            spec,
-            spec.name.clone(),
-            role,
-            Source::Internal,
-            at.internals + k,
-        );
+        plan.add(spec, &spec.name, role, Source::Internal, at.internals + k);
     }
     for (k, spec) in specs.diagnostics.iter().enumerate() {
         let value = at.diagnostics + k;
         plan.add(
             spec,
-            spec.name.clone(),
+            &spec.name,
             SeriesRole::Other,
             Source::Diagnostic,
             value,
         );
     }
     plan.finish()
+}
+
+/// The machine's signals and the reference, then the measurements a sensor changes. The joints'
+/// plant signals are drawn from the joint state instead.
+fn plan_plant_signals(plan: &mut PlotPlan, layout: &SignalLayout, sensed: &[bool], at: &Offsets) {
+    let signals = &layout.specs.signals;
+    let machine = layout.machine_signal_range();
+    let reference = layout.reference_range();
+    for (k, spec) in signals.iter().enumerate() {
+        let value = at.signals + k;
+        if machine.contains(&k) {
+            plan.add(spec, &spec.name, SeriesRole::True, Source::Machine, value);
+        } else if reference.contains(&k) {
+            plan.add(
+                spec,
+                &spec.name,
+                SeriesRole::Reference,
+                Source::Reference,
+                value,
+            );
+        }
+    }
+    for (k, spec) in signals.iter().enumerate() {
+        if sensed.get(k).copied().unwrap_or(false) {
+            let name = format!("{} measured", spec.name);
+            let value = at.measured + k;
+            plan.add(spec, &name, SeriesRole::Measured, Source::Measured, value);
+        }
+    }
+}
+
+/// Each joint's position and velocity; each actuator's commanded and applied effort, on one plot
+/// when they are one quantity (an arm drive's current and torque are two).
+fn plan_joints_and_efforts(plan: &mut PlotPlan, layout: &SignalLayout, at: &Offsets) {
+    let specs = &layout.specs;
+    for (j, [position, velocity]) in specs.joints.iter().enumerate() {
+        plan.add(position, &position.name, SeriesRole::True, Source::Joint, j);
+        let value = at.velocities + j;
+        plan.add(
+            velocity,
+            &velocity.name,
+            SeriesRole::True,
+            Source::Joint,
+            value,
+        );
+    }
+    for (a, (joint, [commanded, applied])) in
+        layout.actuators.iter().zip(&specs.efforts).enumerate()
+    {
+        let efforts = [
+            (
+                *commanded,
+                SeriesRole::Commanded,
+                "commanded",
+                at.commanded + a,
+            ),
+            (*applied, SeriesRole::Applied, "applied", at.applied + a),
+        ];
+        for (unit, role, what, value) in efforts {
+            let plot = format!("{joint} {}", effort_quantity(unit));
+            let spec = SignalSpec::new(format!("{joint} {what}"), unit, plot);
+            plan.add(&spec, &spec.name, role, Source::Effort, value);
+        }
+    }
 }
 
 /// Where each scene marker's coordinates are in the values; a marker naming a signal the run
