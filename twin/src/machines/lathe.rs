@@ -16,8 +16,8 @@
 //! The cutting force acts on the slide against its feed and, tangentially at the cut diameter, on
 //! the part against its rotation: a torque F_i D_i / 2 on the spindle.
 
-use super::{default_joint_signals, joint, process_params, Machine, MachineError};
-use crate::mechanism::{Joint, JointMotion, Mechanism};
+use super::{joint, process_params, Machine, MachineError};
+use crate::mechanism::{JointMotion, Mechanism};
 use crate::physics::{Load, MechanismState, NO_DAMPING, NO_STIFFNESS};
 use crate::scene::{colors, Bounds, Drawing, Marker, MarkerSource, Scene};
 use controllers::{SignalSpec, Unit};
@@ -181,17 +181,6 @@ impl Machine for ParallelLathe {
             Unit::NewtonMetre,
             "spindle cutting torque",
         )]
-    }
-
-    fn joint_signals(&self, joint: &Joint) -> [SignalSpec; 2] {
-        let [position, velocity] = default_joint_signals(joint);
-        if joint.name == "spindle" {
-            return [
-                position,
-                SignalSpec::new(velocity.name, Unit::Rpm, "spindle speed"),
-            ];
-        }
-        [position, velocity]
     }
 
     fn scene(&self) -> Scene {

@@ -151,7 +151,7 @@ impl Machine for Milling {
         ]
     }
 
-    /// The tool tip's deflection in µm; the spindle's speed in rpm on the plot of its command.
+    /// The tool tip's deflection in µm.
     fn joint_signals(&self, joint: &Joint) -> [SignalSpec; 2] {
         let name = joint.name.as_str();
         if name == "tool_x" || name == "tool_y" {
@@ -168,14 +168,7 @@ impl Machine for Milling {
                 ),
             ];
         }
-        let [position, velocity] = default_joint_signals(joint);
-        if name == "spindle" {
-            return [
-                position,
-                SignalSpec::new(velocity.name, Unit::Rpm, "spindle speed"),
-            ];
-        }
-        [position, velocity]
+        default_joint_signals(joint)
     }
 
     fn scene(&self) -> Scene {

@@ -116,13 +116,22 @@ pub fn effort_unit(kind: EffortKind) -> Unit {
 }
 
 /// A joint's position and velocity signals as [`Machine::joint_signals`] shows them by default.
+/// A driven joint that turns without limits (a crank, a spindle) has its speed on a plot of its
+/// own, `<joint> speed`, where the speed a controller commands joins it.
 pub fn default_joint_signals(joint: &Joint) -> [SignalSpec; 2] {
+    let own_speed = format!("{} speed", joint.name);
     let (position_unit, velocity_unit, positions, velocities) = match joint.motion {
         JointMotion::Prismatic { .. } => (
             Unit::Millimetre,
             Unit::MillimetrePerSecond,
             "joint positions",
             "joint velocities",
+        ),
+        _ if joint.limits.is_none() && joint.effort_limit.is_some() => (
+            Unit::DegreeWrapped,
+            Unit::Rpm,
+            "joint angles, wrapped",
+            own_speed.as_str(),
         ),
         _ if joint.limits.is_none() => (
             Unit::DegreeWrapped,

@@ -4,8 +4,8 @@
 
 mod cutting;
 
-use super::{default_joint_signals, joint, link, process_params, Machine, MachineError};
-use crate::mechanism::{Joint, Mechanism};
+use super::{joint, link, process_params, Machine, MachineError};
+use crate::mechanism::Mechanism;
 use crate::physics::{Load, MechanismState, NO_DAMPING, NO_STIFFNESS};
 use crate::scene::{colors, Bounds, Drawing, Marker, MarkerSource, Scene};
 use controllers::{SignalSpec, Unit};
@@ -126,17 +126,6 @@ impl Machine for Whitworth {
                 "ram acceleration",
             ),
         ])
-    }
-
-    fn joint_signals(&self, joint: &Joint) -> [SignalSpec; 2] {
-        let [position, velocity] = default_joint_signals(joint);
-        if joint.name == "crank" {
-            return [
-                position,
-                SignalSpec::new("crank.velocity", Unit::Rpm, "crank speed"),
-            ];
-        }
-        [position, velocity]
     }
 
     fn scene(&self) -> Scene {

@@ -23,7 +23,7 @@ use crate::scene::Bounds;
 const MAX_STACKED_PLOTS: usize = 3;
 
 /// A container or a view of the layout.
-enum Node {
+pub(super) enum Node {
     Container {
         kind: ContainerKind,
         name: String,
@@ -124,7 +124,12 @@ fn plot_tab(tab: PlotTab, plots: &[(String, &PlotSpec)]) -> Option<Node> {
     Some(container(kind, tab.label(), views, vec![]))
 }
 
-fn container(kind: ContainerKind, name: &str, children: Vec<Node>, shares: Vec<f32>) -> Node {
+pub(super) fn container(
+    kind: ContainerKind,
+    name: &str,
+    children: Vec<Node>,
+    shares: Vec<f32>,
+) -> Node {
     Node::Container {
         kind,
         name: name.to_owned(),
@@ -133,7 +138,9 @@ fn container(kind: ContainerKind, name: &str, children: Vec<Node>, shares: Vec<f
     }
 }
 
-fn view(
+/// A view of class `class` (`2D`, `TimeSeries`, `TextLog`, `TextDocument`) showing `contents`
+/// (query expressions; empty: everything under its origin) with view properties by archetype name.
+pub(super) fn view(
     class: &'static str,
     name: &str,
     origin: &str,
@@ -237,7 +244,8 @@ fn uuid_text(n: u128) -> String {
     )
 }
 
-/// Sends the default layout to `stream`, made active and default for its application.
+/// Sends the default layout of a run's recording to `stream`: the mechanism framed on `bounds`
+/// beside the plots, the time panel on `sim_time`.
 pub(super) fn send_default(
     stream: &RecordingStream,
     app: &rerun::ApplicationId,
@@ -245,14 +253,26 @@ pub(super) fn send_default(
     bounds: Option<Bounds>,
     plots: &[(String, &PlotSpec)],
 ) -> Result<(), String> {
+    send(stream, app, layout(title, bounds, plots), Some(SIM_TIME))
+}
+
+/// Sends the layout `root` to `stream`, made active and default for its application, with the
+/// side panels folded away and, given a timeline, the time panel on it (folded); without one, the
+/// time panel is hidden.
+pub(super) fn send(
+    stream: &RecordingStream,
+    app: &rerun::ApplicationId,
+    root: Node,
+    timeline: Option<&str>,
+) -> Result<(), String> {
     let error = |err: rerun::RecordingStreamError| super::error_chain(&err);
     let (blueprint, storage) = RecordingStreamBuilder::new(app.clone())
         .recording_id(format!("{app}-blueprint"))
         .blueprint()
         .memory()
         .map_err(error)?;
+    // The viewer identifies blueprint data by this timeline.
     blueprint.set_time_sequence("blueprint", 0);
-    let root = layout(title, bounds, plots);
     let root = match root {
         Node::View { .. } => container(ContainerKind::Tabs, "", vec![root], vec![]),
         container => container,
@@ -275,27 +295,7 @@ pub(super) fn send_default(
                 .with_auto_views(AutoViews(Bool(false))),
         )
         .map_err(error)?;
-    // The side panels are folded away: the views get the window.
-    for panel in ["blueprint_panel", "selection_panel"] {
-        blueprint
-            .log(
-                panel,
-                &PanelBlueprint::new().with_state(PanelState::Collapsed),
-            )
-            .map_err(error)?;
-    }
-    blueprint
-        .log(
-            "time_panel",
-            &TimePanelBlueprint::new()
-                .with_state(PanelState::Collapsed)
-                .with_timeline(
-                    rerun::external::re_sdk_types::blueprint::components::TimelineName(
-                        SIM_TIME.into(),
-                    ),
-                ),
-        )
-        .map_err(error)?;
+    log_panels(&blueprint, timeline).map_err(error)?;
     blueprint
         .flush_blocking()
         .map_err(|err| super::error_chain(&err))?;
@@ -312,4 +312,27 @@ pub(super) fn send_default(
         },
     );
     Ok(())
+}
+
+/// The side panels folded away (the views get the window); the time panel folded on
+/// `timeline`, or hidden without one.
+fn log_panels(
+    blueprint: &RecordingStream,
+    timeline: Option<&str>,
+) -> rerun::RecordingStreamResult<()> {
+    for panel in ["blueprint_panel", "selection_panel"] {
+        blueprint.log(
+            panel,
+            &PanelBlueprint::new().with_state(PanelState::Collapsed),
+        )?;
+    }
+    let time_panel = match timeline {
+        Some(timeline) => TimePanelBlueprint::new()
+            .with_state(PanelState::Collapsed)
+            .with_timeline(
+                rerun::external::re_sdk_types::blueprint::components::TimelineName(timeline.into()),
+            ),
+        None => TimePanelBlueprint::new().with_state(PanelState::Hidden),
+    };
+    blueprint.log("time_panel", &time_panel)
 }

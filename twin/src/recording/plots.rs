@@ -14,16 +14,13 @@
 use std::path::{Path, PathBuf};
 
 use rerun::archetypes::{LineStrips2D, Points2D, TextDocument, Transform3D};
-use rerun::blueprint::components::{ContainerKind, RootContainer};
+use rerun::blueprint::components::ContainerKind;
 use rerun::components::{Color, MediaType, Radius};
-use rerun::external::re_log_types::BlueprintActivationCommand;
-use rerun::external::re_sdk_types::blueprint::archetypes::{
-    ContainerBlueprint, ViewBlueprint, ViewContents, ViewportBlueprint, VisualBounds2D,
-};
+use rerun::external::re_sdk_types::blueprint::archetypes::VisualBounds2D;
 use rerun::external::re_sdk_types::datatypes::Range2D;
-use rerun::log::LogMsg;
-use rerun::{AsComponents, EntityPath, RecordingStreamBuilder, RecordingStreamResult};
+use rerun::{AsComponents, EntityPath, RecordingStreamBuilder};
 
+use super::blueprint::{self, Node};
 use super::{error_chain, RecordingError};
 
 const PLOT: &str = "plot";
@@ -116,14 +113,13 @@ pub fn write_plot(path: &Path, plot: &Plot2D) -> Result<(), RecordingError> {
     let canvas = Canvas::new(plot);
     let axes = Axes::new(&canvas);
     let app = rerun::ApplicationId::new_or_unknown(plot.title.clone());
-    let (blueprint, activation) =
-        blueprint(app.clone(), &plot.title, axes.bounds(&canvas)).map_err(create_error)?;
-    let stream = RecordingStreamBuilder::new(app)
+    let stream = RecordingStreamBuilder::new(app.clone())
         .recording_name(plot.title.as_str())
         .enabled(true)
         .save(&partial)
         .map_err(|err| create_error(error_chain(&err)))?;
-    stream.send_blueprint(blueprint, activation);
+    let layout = plot_layout(&plot.title, axes.bounds(&canvas));
+    blueprint::send(&stream, &app, layout, None).map_err(create_error)?;
     let log = |entity: EntityPath, archetype: &dyn AsComponents| {
         stream
             .log_static(entity, archetype)
@@ -571,105 +567,31 @@ fn label_spot(canvas: &Canvas, [x, y]: [f64; 2], label: &str) -> [f64; 2] {
     [x, y]
 }
 
-/// The blueprint: the plot (its visual bounds `bounds`, canvas units) beside the notes, as
-/// messages of a blueprint store, with the command that activates it.
-fn blueprint(
-    app: rerun::ApplicationId,
-    title: &str,
-    bounds: Window,
-) -> Result<(Vec<LogMsg>, BlueprintActivationCommand), String> {
-    let (stream, storage) = RecordingStreamBuilder::new(app)
-        .blueprint()
-        .memory()
-        .map_err(|err| error_chain(&err))?;
-    // The viewer identifies blueprint data by this timeline.
-    stream.set_time_sequence("blueprint", 0);
-    log_blueprint(&stream, title, bounds).map_err(|err| error_chain(&err))?;
-    let messages = storage.take();
-    let blueprint_id = messages
-        .first()
-        .map(|message| message.store_id().clone())
-        .ok_or("the plot's blueprint came out empty")?;
-    let activation = BlueprintActivationCommand {
-        blueprint_id,
-        make_active: true,
-        make_default: true,
-    };
-    Ok((messages, activation))
-}
-
-fn log_blueprint(
-    stream: &rerun::RecordingStream,
-    title: &str,
-    [[left, top], [right, bottom]]: Window,
-) -> RecordingStreamResult<()> {
-    let [root, plot_view, notes_view] = [1, 2, 3].map(blueprint_uuid);
-    let view = |id: &[u8; 16]| format!("view/{}", uuid_text(id));
-    let views = [
-        (
-            plot_view,
-            "2D",
-            title,
-            format!("+ /{PLOT}/**"),
-            "/".to_owned(),
-        ),
-        (
-            notes_view,
-            "TextDocument",
-            "notes",
-            "$origin/**".into(),
-            format!("/{NOTES}"),
-        ),
-    ];
-    for (id, class, name, contents, origin) in views {
-        stream.log(
-            format!("{}/ViewContents", view(&id)),
-            &ViewContents::new([contents]),
-        )?;
-        stream.log(
-            view(&id),
-            &ViewBlueprint::new(class)
-                .with_display_name(name)
-                .with_space_origin(origin),
-        )?;
-    }
+/// The layout: the plot (its visual bounds `bounds`, canvas units) beside the notes.
+fn plot_layout(title: &str, [[left, top], [right, bottom]]: Window) -> Node {
     let bounds = Range2D {
         x_range: [left, right].into(),
         y_range: [top, bottom].into(),
     };
-    stream.log(
-        format!("{}/VisualBounds2D", view(&plot_view)),
-        &VisualBounds2D::new(bounds),
-    )?;
-    stream.log(
-        format!("container/{}", uuid_text(&root)),
-        &ContainerBlueprint::new(ContainerKind::Horizontal)
-            .with_contents([view(&plot_view), view(&notes_view)])
-            .with_col_shares([3.0, 1.0]),
-    )?;
-    stream.log(
-        "viewport",
-        &ViewportBlueprint::new().with_root_container(RootContainer(root.into())),
-    )
-}
-
-/// A fixed UUID (version-4 layout) for the blueprint's `n`-th container or view, so the same
-/// plot always writes the same blueprint.
-fn blueprint_uuid(n: u8) -> [u8; 16] {
-    [
-        0x9c, 0x41, 0x7a, 0x2e, 0x5b, 0x13, 0x4d, 0x6f, 0x8a, 0x27, 0x61, 0x0e, 0x3c, 0x58, 0xd2, n,
-    ]
-}
-
-fn uuid_text(bytes: &[u8; 16]) -> String {
-    let hex: String = bytes.iter().map(|b| format!("{b:02x}")).collect();
-    format!(
-        "{}-{}-{}-{}-{}",
-        &hex[0..8],
-        &hex[8..12],
-        &hex[12..16],
-        &hex[16..20],
-        &hex[20..32]
+    let plot = blueprint::view(
+        "2D",
+        title,
+        "/",
+        vec![format!("+ /{PLOT}/**")],
+        vec![("VisualBounds2D", Box::new(VisualBounds2D::new(bounds)))],
+    );
+    let notes = blueprint::view(
+        "TextDocument",
+        "notes",
+        &format!("/{NOTES}"),
+        vec![],
+        vec![],
+    );
+    blueprint::container(
+        ContainerKind::Horizontal,
+        "",
+        vec![plot, notes],
+        vec![3.0, 1.0],
     )
 }
 

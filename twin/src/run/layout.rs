@@ -143,11 +143,6 @@ impl SignalLayout {
         self.diagnostics.iter().position(|s| s == name)
     }
 
-    /// The machine's own signals (task-space and process) within the plant's signals.
-    pub fn machine_signals<'a>(&self, signals: &'a [f64]) -> &'a [f64] {
-        &signals[self.machine_signals.clone()]
-    }
-
     /// Where the machine's own signals are among the plant's signals.
     pub(super) fn machine_signal_range(&self) -> Range<usize> {
         self.machine_signals.clone()
@@ -156,11 +151,6 @@ impl SignalLayout {
     /// Where the reference triple is among the plant's signals (empty without one).
     pub(super) fn reference_range(&self) -> Range<usize> {
         self.reference.map_or(0..0, |start| start..start + 3)
-    }
-
-    /// Names of the machine's own signals.
-    pub fn machine_signal_names(&self) -> &[String] {
-        &self.signals[self.machine_signals.clone()]
     }
 
     /// Tree joint index of each movable joint, in the order of `joints`.
