@@ -24,15 +24,26 @@ impl Configure for ScenarioBuilder {
     }
 
     fn loaded(self) -> LoadedScenario {
-        self.build().unwrap_or_else(|e| panic!("{e}"))
+        self.build(&Registry::builtin())
+            .unwrap_or_else(|e| panic!("{e}"))
     }
 }
 
 /// Runs a loaded scenario with the built-in controllers, optionally recording.
 pub fn run(loaded: LoadedScenario, recording: Option<&std::path::Path>) -> RunSummary {
-    Twin::new(loaded, &Registry::builtin())
+    Twin::new(loaded)
         .and_then(|t| t.run(recording))
         .unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// What refuses `builder` as `twin run` would: building the scenario (a bad key, a bad
+/// controller parameter) or binding its twin (a mismatch with the plant); `None` when neither does.
+pub fn refusal(builder: ScenarioBuilder) -> Option<String> {
+    match builder.build(&Registry::builtin()).map(Twin::new) {
+        Ok(Ok(_)) => None,
+        Ok(Err(error)) => Some(error.to_string()),
+        Err(error) => Some(error.to_string()),
+    }
 }
 
 /// A fresh, empty folder under the target's temp dir for one test.

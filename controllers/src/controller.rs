@@ -2,6 +2,7 @@
 
 use crate::event::Event;
 use crate::signal::SignalSpec;
+use std::fmt;
 use thiserror::Error;
 
 /// What an actuated joint takes as effort.
@@ -11,6 +12,15 @@ pub enum EffortKind {
     Torque,
     /// N on a prismatic joint.
     Force,
+}
+
+impl fmt::Display for EffortKind {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            Self::Torque => "torque (a revolute joint)",
+            Self::Force => "force (a prismatic joint)",
+        })
+    }
 }
 
 /// One actuated joint as a controller sees it.
@@ -58,6 +68,26 @@ impl PlantInterface {
                 joint: joint.to_string(),
             })
     }
+
+    /// Index of the actuator on `joint`, which must take efforts of `kind`, or an error naming
+    /// what is missing or different.
+    pub fn actuator_of_kind(
+        &self,
+        joint: &str,
+        kind: EffortKind,
+    ) -> Result<usize, ControllerError> {
+        let index = self.actuator(joint)?;
+        let found = self.actuators[index].kind;
+        if found != kind {
+            return Err(ControllerError::WrongEffort {
+                machine: self.machine.clone(),
+                joint: joint.to_string(),
+                expected: kind,
+                found,
+            });
+        }
+        Ok(index)
+    }
 }
 
 /// One sample of every measured signal, in the order of [`PlantInterface::signals`].
@@ -80,16 +110,96 @@ impl Measurement<'_> {
 pub enum ControllerError {
     #[error("unknown controller `{name}` (known: {known})")]
     Unknown { name: String, known: String },
-    #[error("controller `{controller}`: bad parameters: {reason}")]
-    BadParameters { controller: String, reason: String },
+    /// An entry of the controller's `[controller.params]` table that cannot be used.
+    #[error("controller `{controller}`: {}", parameter_message(key, value.as_deref(), reason))]
+    BadParameter {
+        controller: String,
+        /// Dotted path of the entry inside the table (`natural_frequency`, `lathe.max_feed`,
+        /// `time_constants.0`); empty when the error concerns the whole table.
+        key: String,
+        /// The offending value as written, when one value is at fault.
+        value: Option<String>,
+        /// What the value must be (`must be > 0`), without repeating the key.
+        reason: String,
+    },
     #[error("controller needs signal `{signal}`, which machine `{machine}` does not measure")]
     MissingSignal { machine: String, signal: String },
     #[error(
         "controller needs an actuator on joint `{joint}`, which machine `{machine}` does not have (a URDF joint is actuated when its <limit effort> is > 0)"
     )]
     MissingActuator { machine: String, joint: String },
-    #[error("controller `{controller}` does not fit machine `{machine}`")]
-    WrongMachine { controller: String, machine: String },
+    #[error(
+        "controller needs joint `{joint}` of machine `{machine}` to take a {expected}, not a {found}"
+    )]
+    WrongEffort {
+        machine: String,
+        joint: String,
+        expected: EffortKind,
+        found: EffortKind,
+    },
+    #[error("controller `{controller}` is written for machine `{written_for}`, not `{machine}`")]
+    WrongMachine {
+        controller: String,
+        machine: String,
+        written_for: String,
+    },
+}
+
+impl ControllerError {
+    /// A [`BadParameter`](Self::BadParameter) error of `controller`: the entry `key` holds
+    /// `value`, which it must not (`reason`, e.g. `must be > 0`).
+    pub fn parameter(
+        controller: &str,
+        key: impl Into<String>,
+        value: impl fmt::Display,
+        reason: impl Into<String>,
+    ) -> Self {
+        Self::BadParameter {
+            controller: controller.to_string(),
+            key: key.into(),
+            value: Some(shown(value.to_string())),
+            reason: reason.into(),
+        }
+    }
+
+    /// A [`BadParameter`](Self::BadParameter) error about a whole table (`key` empty) or
+    /// sub-table (e.g. `lathe`) rather than one value, such as a model that rejects its data.
+    pub fn parameter_table(
+        controller: &str,
+        key: impl Into<String>,
+        reason: impl Into<String>,
+    ) -> Self {
+        Self::BadParameter {
+            controller: controller.to_string(),
+            key: key.into(),
+            value: None,
+            reason: reason.into(),
+        }
+    }
+}
+
+/// A value as a one-line message shows it: a number whose digits run long (`1e300` written out
+/// has 301) in exponent form.
+fn shown(value: String) -> String {
+    match value.parse::<f64>() {
+        Ok(number) if value.len() > 20 => format!("{number:e}"),
+        _ => value,
+    }
+}
+
+/// A parameter error as the controller's table sees it: `params.KEY = VALUE: reason`, without
+/// ` = VALUE` when no single value is at fault and `params: reason` for the whole table. The
+/// scenario layer prefixes `controller.` to name the entry in the scenario file.
+pub fn parameter_message(key: &str, value: Option<&str>, reason: &str) -> String {
+    let path = if key.is_empty() {
+        "params".to_string()
+    } else {
+        format!("params.{key}")
+    };
+    match value {
+        Some(value) => format!("{path} = {value}: {reason}"),
+        None => format!("{path}: {reason}"),
+    }
 }
 
 /// A controller: object safe, so the twin holds any of them as `Box<dyn Controller>`.

@@ -10,6 +10,7 @@
 //! its state is set to the steady state for that input (output `b₀·input`), so a signal that
 //! starts far from zero causes no start-up transient.
 
+use crate::ControllerError;
 use thiserror::Error;
 
 /// A filter time constant that cannot be used.
@@ -19,6 +20,17 @@ pub enum FilterError {
     NotPositive { name: &'static str, value: f64 },
     #[error("filter {name} must be finite and ≥ 0 (got {value})")]
     Negative { name: &'static str, value: f64 },
+}
+
+impl FilterError {
+    /// The error as a bad parameter of `controller`, whose entry `key` set the time constant.
+    pub fn for_parameter(&self, controller: &str, key: &str) -> ControllerError {
+        let (value, reason) = match *self {
+            Self::NotPositive { value, .. } => (value, "must be finite and > 0"),
+            Self::Negative { value, .. } => (value, "must be finite and ≥ 0"),
+        };
+        ControllerError::parameter(controller, key, value, reason)
+    }
 }
 
 fn positive(name: &'static str, value: f64) -> Result<f64, FilterError> {

@@ -1,7 +1,7 @@
 //! `passive`: no effort at all — the machine moves freely under gravity and its own momentum.
 //! The baseline for energy checks and for watching a mechanism fall.
 
-use crate::registry::{parse_params, Entry};
+use crate::registry::{parse_params, Entry, ANY_MACHINE};
 use crate::{Controller, ControllerError, Measurement, PlantInterface};
 use serde::Deserialize;
 
@@ -15,7 +15,7 @@ pub struct Passive;
 pub(crate) fn entry() -> Entry {
     Entry {
         name: "passive",
-        machine: "*",
+        machine: ANY_MACHINE,
         summary: "zero effort on every actuator (free motion)",
         build: |table| {
             let _: PassiveParams = parse_params("passive", table)?;

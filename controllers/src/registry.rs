@@ -2,6 +2,8 @@
 
 use crate::{Controller, ControllerError};
 use serde::de::DeserializeOwned;
+use serde_path_to_error::{Path, Segment};
+use std::fmt;
 
 /// Builds a controller from the scenario's `[controller.params]` table.
 pub type Constructor = fn(&toml::Table) -> Result<Box<dyn Controller>, ControllerError>;
@@ -10,7 +12,8 @@ pub type Constructor = fn(&toml::Table) -> Result<Box<dyn Controller>, Controlle
 #[derive(Clone)]
 pub struct Entry {
     pub name: &'static str,
-    /// The machine it is written for (`*` for any).
+    /// The machine it is written for ([`ANY_MACHINE`] for any): [`Registry::build`] refuses it
+    /// for another.
     pub machine: &'static str,
     pub summary: &'static str,
     pub build: Constructor,
@@ -22,6 +25,9 @@ pub struct Entry {
 pub struct Registry {
     entries: Vec<Entry>,
 }
+
+/// [`Entry::machine`] of a controller written for any machine.
+pub const ANY_MACHINE: &str = "*";
 
 impl Registry {
     /// The controllers shipped with the twin.
@@ -43,46 +49,91 @@ impl Registry {
         &self.entries
     }
 
-    /// Builds the controller called `name` from its parameter table.
+    /// The controller called `name`, if registered.
+    pub fn entry(&self, name: &str) -> Option<&Entry> {
+        self.entries.iter().find(|e| e.name == name)
+    }
+
+    /// Builds the controller called `name` for the machine called `machine` from its parameter
+    /// table. Fails, before any parameter is read, when no controller has that name or it is
+    /// written for another machine.
     pub fn build(
         &self,
         name: &str,
+        machine: &str,
         params: &toml::Table,
     ) -> Result<Box<dyn Controller>, ControllerError> {
-        let entry = self
-            .entries
-            .iter()
-            .find(|e| e.name == name)
-            .ok_or_else(|| ControllerError::Unknown {
-                name: name.to_string(),
-                known: self
-                    .entries
-                    .iter()
-                    .map(|e| e.name)
-                    .collect::<Vec<_>>()
-                    .join(", "),
-            })?;
+        let entry = self.entry(name).ok_or_else(|| ControllerError::Unknown {
+            name: name.to_string(),
+            known: self
+                .entries
+                .iter()
+                .map(|e| e.name)
+                .collect::<Vec<_>>()
+                .join(", "),
+        })?;
+        if entry.machine != ANY_MACHINE && entry.machine != machine {
+            return Err(ControllerError::WrongMachine {
+                controller: name.to_string(),
+                machine: machine.to_string(),
+                written_for: entry.machine.to_string(),
+            });
+        }
         (entry.build)(params)
     }
 }
 
-/// Reads a controller's parameter struct from its table; unknown keys and wrong types are errors
-/// that name the controller and the offending entry.
+/// Reads a controller's parameter struct from its table; unknown keys, wrong types and
+/// non-finite numbers are [`ControllerError::BadParameter`] errors naming the controller and the
+/// offending entry's key path.
 pub fn parse_params<P: DeserializeOwned>(
     controller: &str,
     params: &toml::Table,
 ) -> Result<P, ControllerError> {
-    from_table(params).map_err(|reason| ControllerError::BadParameters {
+    deserialize_table(params).map_err(|error| ControllerError::BadParameter {
         controller: controller.to_string(),
-        reason,
+        key: error.key,
+        value: error.value,
+        reason: error.reason,
     })
 }
 
-/// Deserialises a table, with a one-line message that names the offending key path. Stricter than
-/// TOML itself: every number must be finite (TOML allows `inf` and `nan`, no physical parameter
-/// does), and an array must have exactly the length its field takes (the TOML deserialiser would
-/// silently drop extra elements of a fixed-size array).
+/// Why a table does not deserialise: where, what was written there when one value is at fault,
+/// and what is wrong.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TableError {
+    /// Dotted key path of the offending entry (`gains.0`); empty for the table itself (a missing
+    /// field, whose name the reason gives).
+    pub key: String,
+    /// The offending value, for a value that is not a finite number.
+    pub value: Option<String>,
+    /// What is wrong: serde's message (`invalid type: …`, `unknown field …`) or `must be a finite
+    /// number`.
+    pub reason: String,
+}
+
+impl fmt::Display for TableError {
+    /// `` `key` = value: reason ``, `` `key`: reason ``, or the reason alone for the table.
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match (self.key.as_str(), &self.value) {
+            ("", _) => f.write_str(&self.reason),
+            (key, Some(value)) => write!(f, "`{key}` = {value}: {}", self.reason),
+            (key, None) => write!(f, "`{key}`: {}", self.reason),
+        }
+    }
+}
+
+/// Deserialises a table, with a one-line message that names the offending key path (see
+/// [`deserialize_table`]).
 pub fn from_table<P: DeserializeOwned>(table: &toml::Table) -> Result<P, String> {
+    deserialize_table(table).map_err(|error| error.to_string())
+}
+
+/// Deserialises a table, with an error that names the offending key path. Stricter than TOML
+/// itself: every number must be finite (TOML allows `inf` and `nan`, no physical parameter does),
+/// and an array must have exactly the length its field takes (the TOML deserialiser would
+/// silently drop extra elements of a fixed-size array).
+pub fn deserialize_table<P: DeserializeOwned>(table: &toml::Table) -> Result<P, TableError> {
     check_finite(table, &mut Vec::new())?;
     // Through the value: it checks array lengths, and the error carries the key path. (Line
     // numbers would be those of a re-serialised table, not of the user's file.)
@@ -90,25 +141,39 @@ pub fn from_table<P: DeserializeOwned>(table: &toml::Table) -> Result<P, String>
         .map_err(|error| describe_path_error(&error))
 }
 
-/// `key.path: message`, with serde's wording for a too-long array made plain.
-fn describe_path_error(error: &serde_path_to_error::Error<toml::de::Error>) -> String {
+/// The key path and serde's message, with its wording for a too-long array made plain.
+fn describe_path_error(error: &serde_path_to_error::Error<toml::de::Error>) -> TableError {
     let message = error.inner().message().trim().replace('\n', " ");
-    let message = match message.strip_prefix("invalid length ") {
+    let reason = match message.strip_prefix("invalid length ") {
         Some(rest) if rest.contains("fewer elements in array") => {
             let found = rest.split(',').next().unwrap_or(rest);
             format!("has {found} elements, more than it takes")
         }
         _ => message,
     };
-    match error.path().to_string().as_str() {
-        // The table itself (a missing field): the message names the key.
-        "." => message,
-        path => format!("`{path}`: {message}"),
+    TableError {
+        key: dotted(error.path()),
+        value: None,
+        reason,
     }
 }
 
+/// A serde path in the dotted form of the finiteness check (`gains.1`, not serde's `gains[1]`);
+/// empty for the table itself (a missing field, whose name the message gives).
+fn dotted(path: &Path) -> String {
+    path.iter()
+        .map(|segment| match segment {
+            Segment::Seq { index } => index.to_string(),
+            Segment::Map { key } => key.clone(),
+            Segment::Enum { variant } => variant.clone(),
+            Segment::Unknown => "?".to_string(),
+        })
+        .collect::<Vec<_>>()
+        .join(".")
+}
+
 /// Rejects NaN and infinities anywhere in the table, naming the key.
-fn check_finite(table: &toml::Table, path: &mut Vec<String>) -> Result<(), String> {
+fn check_finite(table: &toml::Table, path: &mut Vec<String>) -> Result<(), TableError> {
     for (key, value) in table {
         path.push(key.clone());
         check_finite_value(value, path)?;
@@ -117,12 +182,13 @@ fn check_finite(table: &toml::Table, path: &mut Vec<String>) -> Result<(), Strin
     Ok(())
 }
 
-fn check_finite_value(value: &toml::Value, path: &mut Vec<String>) -> Result<(), String> {
+fn check_finite_value(value: &toml::Value, path: &mut Vec<String>) -> Result<(), TableError> {
     match value {
-        toml::Value::Float(x) if !x.is_finite() => Err(format!(
-            "`{}` = {x}: must be a finite number",
-            path.join(".")
-        )),
+        toml::Value::Float(x) if !x.is_finite() => Err(TableError {
+            key: path.join("."),
+            value: Some(x.to_string()),
+            reason: "must be a finite number".into(),
+        }),
         toml::Value::Table(table) => check_finite(table, path),
         toml::Value::Array(items) => {
             for (index, item) in items.iter().enumerate() {
@@ -157,5 +223,163 @@ pub fn describe_toml_error(text: &str, error: &toml::de::Error) -> String {
             format!("line {line_number} (`{line}`): {message}")
         }
         _ => message,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::whitworth::crank_pi::CrankPiParams;
+
+    fn table(text: &str) -> toml::Table {
+        text.parse().unwrap()
+    }
+
+    #[test]
+    fn build_checks_the_name_and_the_machine() {
+        let registry = Registry::builtin();
+        let err = registry
+            .build("p-pi", "whitworth", &toml::Table::new())
+            .err()
+            .unwrap();
+        assert_eq!(
+            err,
+            ControllerError::WrongMachine {
+                controller: "p-pi".into(),
+                machine: "whitworth".into(),
+                written_for: "feed_axis".into(),
+            }
+        );
+        assert_eq!(
+            err.to_string(),
+            "controller `p-pi` is written for machine `feed_axis`, not `whitworth`"
+        );
+        // The machine is checked before the parameters are read.
+        let err = registry
+            .build("p-pi", "whitworth", &table("mass_estimate = -1.0"))
+            .err()
+            .unwrap();
+        assert!(matches!(err, ControllerError::WrongMachine { .. }), "{err}");
+        let err = registry
+            .build("no-such", "whitworth", &toml::Table::new())
+            .err()
+            .unwrap();
+        assert!(
+            matches!(
+                &err,
+                ControllerError::Unknown { name, known }
+                    if name == "no-such" && known.contains("crank-pi")
+            ),
+            "{err}"
+        );
+        for machine in ["whitworth", "arm", "feed_axis"] {
+            assert!(registry
+                .build("passive", machine, &toml::Table::new())
+                .is_ok());
+        }
+        assert!(registry
+            .build("p-pi", "feed_axis", &toml::Table::new())
+            .is_ok());
+    }
+
+    #[test]
+    fn every_builtin_entry_builds_with_its_defaults_on_its_machine() {
+        let registry = Registry::builtin();
+        for entry in registry.entries() {
+            assert_eq!(registry.entry(entry.name).map(|e| e.name), Some(entry.name));
+            let machine = if entry.machine == ANY_MACHINE {
+                "whitworth"
+            } else {
+                entry.machine
+            };
+            let built = registry.build(entry.name, machine, &toml::Table::new());
+            assert!(built.is_ok(), "{}: {:?}", entry.name, built.err());
+        }
+        assert!(registry.entry("no-such").is_none());
+    }
+
+    #[test]
+    fn serde_errors_carry_the_key_path() {
+        let err = parse_params::<CrankPiParams>("crank-pi", &table("natural_frequency = \"fast\""))
+            .unwrap_err();
+        let ControllerError::BadParameter {
+            key, value, reason, ..
+        } = &err
+        else {
+            panic!("{err:?}");
+        };
+        assert_eq!((key.as_str(), value), ("natural_frequency", &None));
+        assert!(reason.starts_with("invalid type: string"), "{reason}");
+        assert!(
+            err.to_string()
+                .starts_with("controller `crank-pi`: params.natural_frequency: invalid type"),
+            "{err}"
+        );
+        let err = parse_params::<CrankPiParams>("crank-pi", &table("gain = 1.0")).unwrap_err();
+        assert!(
+            matches!(
+                &err,
+                ControllerError::BadParameter { key, reason, .. }
+                    if key == "gain" && reason.starts_with("unknown field `gain`")
+            ),
+            "{err:?}"
+        );
+    }
+
+    #[test]
+    fn non_finite_numbers_are_named_with_their_value() {
+        let err = parse_params::<CrankPiParams>("crank-pi", &table("inertia = nan")).unwrap_err();
+        assert_eq!(
+            err,
+            ControllerError::BadParameter {
+                controller: "crank-pi".into(),
+                key: "inertia".into(),
+                value: Some("NaN".into()),
+                reason: "must be a finite number".into(),
+            }
+        );
+        assert_eq!(
+            err.to_string(),
+            "controller `crank-pi`: params.inertia = NaN: must be a finite number"
+        );
+    }
+
+    #[test]
+    fn from_table_keeps_its_one_line_messages() {
+        #[derive(Debug, serde::Deserialize)]
+        #[serde(deny_unknown_fields)]
+        struct Pair {
+            gains: [f64; 2],
+        }
+        let pair: Pair = from_table(&table("gains = [1.0, 2.0]")).unwrap();
+        assert_eq!(pair.gains, [1.0, 2.0]);
+        let message = |text: &str| from_table::<Pair>(&table(text)).unwrap_err();
+        assert_eq!(
+            message("gains = [1.0, inf]"),
+            "`gains.1` = inf: must be a finite number"
+        );
+        assert_eq!(
+            message("gains = [1.0, 2.0, 3.0]"),
+            "`gains`: has 3 elements, more than it takes"
+        );
+        assert_eq!(message(""), "missing field `gains`");
+        let error = deserialize_table::<Pair>(&table("gains = [1.0, \"x\"]")).unwrap_err();
+        assert_eq!(error.key, "gains.1");
+    }
+
+    #[test]
+    fn parameter_message_renders_key_value_and_reason() {
+        assert_eq!(
+            crate::parameter_message("natural_frequency", Some("-1"), "must be > 0"),
+            "params.natural_frequency = -1: must be > 0"
+        );
+        assert_eq!(
+            crate::parameter_message("lathe", None, "reaches only 1 W"),
+            "params.lathe: reaches only 1 W"
+        );
+        assert_eq!(
+            crate::parameter_message("", None, "unknown"),
+            "params: unknown"
+        );
     }
 }

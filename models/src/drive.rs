@@ -151,7 +151,7 @@ impl Drive {
     /// loop's lag — at a 1 ms step with the 2000 rad/s loop that triples the drive's gain at the
     /// control Nyquist frequency (0.76 instead of 0.24) and so amplified the arm servos' chatter
     /// at the stretched start pose (`arm-milling`, first 0.8 s; the servo's own margin there is
-    /// a separate matter, see `controllers/src/arm_servo.rs`).
+    /// a separate matter, see `controllers/src/arm/servo.rs`).
     pub fn step(&mut self, dt: f64, command: f64, joint_speed: f64) -> f64 {
         let p = self.params;
         let limit = p.current_limit;

@@ -3,9 +3,8 @@
 //! constant speed; the blind constant V0 saturates the shoulder and distorts the path; bad
 //! programs and parameters are refused before the run.
 
-use controllers::Registry;
-use twin::{RunSummary, ScenarioValue, Twin};
-use twin_tests::{builtin, run, Configure};
+use twin::{RunSummary, ScenarioValue};
+use twin_tests::{builtin, refusal, run, Configure};
 
 const TOLERANCE: f64 = 18.0;
 const MOTORS: [&str; 4] = ["shoulder", "elbow", "wrist", "spindle"];
@@ -66,11 +65,8 @@ fn adaptive_correction_against_constant_speeds() {
 }
 
 fn refused(key: &str, value: impl Into<ScenarioValue>) -> String {
-    let loaded = builtin("arm-milling").with(key, value).loaded();
-    match Twin::new(loaded, &Registry::builtin()) {
-        Ok(_) => panic!("{key} must be refused before the run"),
-        Err(e) => e.to_string(),
-    }
+    refusal(builtin("arm-milling").with(key, value))
+        .unwrap_or_else(|| panic!("{key} must be refused before the run"))
 }
 
 #[test]

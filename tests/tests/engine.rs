@@ -4,16 +4,16 @@
 
 use models::serial_chain::{ChainLink, SerialChain};
 use std::f64::consts::{FRAC_PI_2, TAU};
-use twin::energy::mechanical_energy;
-use twin::mechanism::{JointMotion, Mechanism};
-use twin::physics::{MechanismState, Physics, SolverSettings};
+use twin::engine::mechanical_energy;
+use twin::engine::{JointMotion, Mechanism};
+use twin::engine::{MechanismState, Physics, SolverSettings};
 use twin_tests::{builtin, run, Configure};
 
 const GRAVITY: [f64; 2] = [0.0, -9.81];
 
 fn load(path: &str) -> Mechanism {
     let text = std::fs::read_to_string(path).expect("URDF file");
-    twin::urdf::load_str(&text, path).unwrap_or_else(|e| panic!("{e}"))
+    twin::engine::load_urdf(&text, path).unwrap_or_else(|e| panic!("{e}"))
 }
 
 fn arm(damped: bool) -> Mechanism {
@@ -194,8 +194,9 @@ fn zero_crossings(samples: &[(f64, f64)]) -> Vec<f64> {
 #[test]
 fn pendulum_swings_with_its_closed_form_period() {
     let (mass, length, izz, amplitude) = (2.0, 0.4, 0.01, 1.0);
-    let mechanism = twin::urdf::load_str(&pendulum_urdf(mass, length, izz, amplitude), "pendulum")
-        .unwrap_or_else(|e| panic!("{e}"));
+    let mechanism =
+        twin::engine::load_urdf(&pendulum_urdf(mass, length, izz, amplitude), "pendulum")
+            .unwrap_or_else(|e| panic!("{e}"));
     let dt = 1e-3;
     let mut twin = physics(&mechanism, dt);
     let mut state = MechanismState::default();
@@ -239,7 +240,7 @@ fn spring_damper_decays_at_its_physical_rate_not_a_numerical_one() {
     <spring stiffness="{stiffness}" reference="-0.001"/></joint>
 </robot>"#
     );
-    let mechanism = twin::urdf::load_str(&urdf, "mass_spring").unwrap_or_else(|e| panic!("{e}"));
+    let mechanism = twin::engine::load_urdf(&urdf, "mass_spring").unwrap_or_else(|e| panic!("{e}"));
     let dt = 1e-5;
     let mut twin = physics(&mechanism, dt);
     let mut state = MechanismState::default();
@@ -289,7 +290,7 @@ fn dry_friction_holds_below_breakaway_and_slides_above_it() {
 </robot>"#
         )
     };
-    let mechanism = twin::urdf::load_str(&urdf(5.0), "block").unwrap_or_else(|e| panic!("{e}"));
+    let mechanism = twin::engine::load_urdf(&urdf(5.0), "block").unwrap_or_else(|e| panic!("{e}"));
     let mut state = MechanismState::default();
     for (push, expected) in [(4.0, 0.0), (9.0, (9.0 - 5.0) / 2.0)] {
         let mut twin = physics(&mechanism, 1e-3);
@@ -309,7 +310,7 @@ fn dry_friction_holds_below_breakaway_and_slides_above_it() {
 #[test]
 fn a_joint_stops_at_its_limit() {
     // Released 1 rad from hanging down towards a stop 0.3 rad on, where gravity holds it.
-    let mut mechanism = twin::urdf::load_str(&pendulum_urdf(2.0, 0.4, 0.01, 1.0), "pendulum")
+    let mut mechanism = twin::engine::load_urdf(&pendulum_urdf(2.0, 0.4, 0.01, 1.0), "pendulum")
         .unwrap_or_else(|e| panic!("{e}"));
     mechanism.joints[0].limits = Some([-0.3, 0.3]);
     let mut twin = physics(&mechanism, 1e-3);

@@ -3,9 +3,9 @@
 //! region the slow design cannot recover from, and bad inputs refused before the run.
 
 use controllers::Registry;
-use twin::analysis::lathe::{analyze, Gains, PhasePlane, PhasePlaneRequest};
-use twin::reproduce::lathe::{compare, Comparison, TwinStart, AGREEMENT};
-use twin::{ScenarioBuilder, ScenarioValue, Twin};
+use twin::{ScenarioValue, Twin};
+use twin_cli::analysis::lathe::{analyze, Gains, PhasePlane, PhasePlaneRequest};
+use twin_cli::reproduce::lathe::{compare, Comparison, TwinStart, AGREEMENT};
 use twin_tests::{builtin, run, scratch, Configure};
 
 /// The reduced model's phase plane for a gain set, on a coarse grid (the twin runs need only its
@@ -173,10 +173,10 @@ fn analysis_writes_its_tables_and_plot() {
 fn refused(key: &str, value: impl Into<ScenarioValue>) -> String {
     let loaded = builtin("lathe-turning")
         .set(key, value)
-        .and_then(ScenarioBuilder::build);
+        .and_then(|b| b.build(&Registry::builtin()));
     let error = match loaded {
         Err(e) => e.to_string(),
-        Ok(loaded) => match Twin::new(loaded, &Registry::builtin()) {
+        Ok(loaded) => match Twin::new(loaded) {
             Err(e) => e.to_string(),
             Ok(_) => panic!("{key} must be refused"),
         },
@@ -242,7 +242,7 @@ fn bad_inputs_are_refused_before_the_run() {
 
 #[test]
 fn analyze_command_names_bad_requests() {
-    use twin::analysis::{run as analyze_command, AnalyzeArgs};
+    use twin_cli::analysis::{run as analyze_command, AnalyzeArgs};
     let dir = scratch("lathe-analyze-command");
     let args = AnalyzeArgs {
         machine: "lathe".into(),

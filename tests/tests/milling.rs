@@ -4,8 +4,8 @@
 
 use controllers::Registry;
 use std::f64::consts::TAU;
-use twin::analysis::milling::{analyze, LobeRequest};
 use twin::{Findings, Observer, ObserverError, SignalLayout, StepView, Twin};
+use twin_cli::analysis::milling::{analyze, LobeRequest};
 use twin_tests::{builtin, run, Configure};
 
 const SCENARIO: &str = "milling-constant-15000";
@@ -49,7 +49,7 @@ fn the_tool_rings_at_its_natural_frequency_and_decays_at_its_damping_ratio() {
         index: 0,
         samples: Vec::new(),
     };
-    Twin::new(loaded, &Registry::builtin())
+    Twin::new(loaded)
         .and_then(|t| t.run_with(None, &mut [&mut trace]))
         .unwrap_or_else(|e| panic!("{e}"));
     let s = &trace.samples;
@@ -128,9 +128,9 @@ fn the_lobes_agree_with_the_twins_own_runs() {
 
 #[test]
 fn bad_milling_input_is_refused_naming_the_entry() {
-    let error = |builder: twin::ScenarioBuilder| match builder.build() {
+    let error = |builder: twin::ScenarioBuilder| match builder.build(&Registry::builtin()) {
         Err(e) => e.to_string(),
-        Ok(loaded) => match Twin::new(loaded, &Registry::builtin()) {
+        Ok(loaded) => match Twin::new(loaded) {
             Err(e) => e.to_string(),
             Ok(_) => panic!("accepted"),
         },

@@ -93,7 +93,7 @@ fn bad_paths_are_errors_before_the_run() {
         ("process.friction", 0.0.into(), "friction must be > 0"),
     ] {
         let loaded = builtin("platform-path").with(key, value).loaded();
-        let err = Twin::new(loaded, &Registry::builtin())
+        let err = Twin::new(loaded)
             .err()
             .unwrap_or_else(|| panic!("{key} ({expected}) must be rejected"));
         assert!(err.to_string().contains(expected), "{err}");
@@ -108,7 +108,7 @@ fn a_user_urdf_with_a_bad_wheel_is_an_error_before_the_run() {
         "/../urdf/platform.urdf"
     ))
     .unwrap();
-    let scenario_text = twin::scenario::BUILTIN
+    let scenario_text = twin::BUILTIN_SCENARIOS
         .iter()
         .find(|(name, _)| *name == "platform-path")
         .unwrap()
@@ -125,9 +125,9 @@ fn a_user_urdf_with_a_bad_wheel_is_an_error_before_the_run() {
     ] {
         std::fs::write(dir.join("urdf/platform.urdf"), urdf.replacen(from, to, 1)).unwrap();
         let loaded = Scenario::from_file(dir.join("scenario.toml"))
-            .and_then(ScenarioBuilder::build)
+            .and_then(|b| b.build(&Registry::builtin()))
             .unwrap();
-        let err = Twin::new(loaded, &Registry::builtin()).err().unwrap();
+        let err = Twin::new(loaded).err().unwrap();
         assert!(err.to_string().contains(expected), "{err}");
         assert!(err.to_string().contains("left_wheel"), "{err}");
     }

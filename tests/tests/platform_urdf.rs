@@ -1,8 +1,8 @@
 //! The `<wheel>` extension of the URDF loader: the platform loads, and every wheel defect is a
 //! typed error naming the file, the element and the reason.
 
-use twin::mechanism::JointMotion;
-use twin::urdf::{load_file, load_str, UrdfError};
+use twin::engine::JointMotion;
+use twin::engine::{load_urdf as load_str, load_urdf_file as load_file, UrdfError};
 
 fn platform_text() -> String {
     let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../urdf/platform.urdf");

@@ -3,11 +3,10 @@
 //! the mechanism view's frame fixed and holding the machine all run long, and the frame, the
 //! start and end events and the summary in the file.
 
-use controllers::Registry;
 use std::collections::HashSet;
-use twin::recording::{PlotSpec, SeriesRole};
-use twin::scenario::BUILTIN;
-use twin::scene::Scene;
+use twin::recordings::Scene;
+use twin::recordings::{PlotSpec, SeriesRole};
+use twin::BUILTIN_SCENARIOS as BUILTIN;
 use twin::{Findings, Observer, ObserverError, SignalLayout, StepView, Twin};
 use twin_tests::{builtin, scratch, Configure};
 
@@ -16,7 +15,7 @@ fn twin(name: &str, duration: Option<f64>) -> Twin {
     if let Some(seconds) = duration {
         scenario = scenario.duration(seconds);
     }
-    Twin::new(scenario.loaded(), &Registry::builtin()).unwrap_or_else(|e| panic!("{name}: {e}"))
+    Twin::new(scenario.loaded()).unwrap_or_else(|e| panic!("{name}: {e}"))
 }
 
 fn plot<'a>(plots: &'a [PlotSpec], title: &str) -> &'a PlotSpec {
@@ -176,7 +175,7 @@ fn a_recording_holds_its_frame_once_and_its_start_end_and_summary() {
     let twin = twin("whitworth-crank-pi", Some(0.5));
     let (_, scene) = twin.recording_plan();
     twin.run(Some(&path)).unwrap();
-    let contents = twin::recording::inspect(&path).unwrap();
+    let contents = twin::recordings::inspect(&path).unwrap();
     // The mechanism view's bounds: set once, in the layout, to the scene's frame.
     assert_eq!(
         contents.visual_bounds.len(),

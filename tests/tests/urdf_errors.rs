@@ -1,6 +1,6 @@
 //! Every URDF defect is a typed error naming the file, the element and the reason — never a panic.
 
-use twin::urdf::{load_file, load_str, UrdfError};
+use twin::engine::{load_urdf as load_str, load_urdf_file as load_file, UrdfError};
 
 /// A valid two-link pendulum; each test breaks one thing.
 const PENDULUM: &str = r#"<robot name="pendulum">
@@ -136,7 +136,7 @@ fn a_negative_revolute_axis_is_carried_as_a_sign() {
     let mechanism = load_str(&text, "pendulum.urdf").unwrap();
     assert_eq!(
         mechanism.joints[0].motion,
-        twin::mechanism::JointMotion::Revolute { sign: -1.0 }
+        twin::engine::JointMotion::Revolute { sign: -1.0 }
     );
 }
 

@@ -68,7 +68,8 @@ fn every_shipped_urdf_loads_in_mujoco_with_the_same_tree() {
         String::from_utf8_lossy(&out.stderr)
     );
     for (file, line) in files.iter().zip(text.lines()) {
-        let mechanism = twin::urdf::load_file(Path::new(file)).unwrap_or_else(|e| panic!("{e}"));
+        let mechanism =
+            twin::engine::load_urdf_file(Path::new(file)).unwrap_or_else(|e| panic!("{e}"));
         // MuJoCo counts its world body; fixed joints merge bodies there, so compare movable ones.
         let counts: Vec<usize> = line
             .split_whitespace()

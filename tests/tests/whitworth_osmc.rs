@@ -2,7 +2,6 @@
 //! velocity against the 400 N contact force with full crank turns, and the tracking comparison of
 //! its Fig. 8.
 
-use controllers::Registry;
 use twin::{Observer, ObserverError, SignalLayout, StepView, Twin};
 use twin_tests::{builtin, run, Configure};
 
@@ -83,7 +82,7 @@ impl Observer for MseByHand {
 fn the_declared_tracking_mse_is_the_papers_formula() {
     let loaded = builtin("whitworth-tracking").duration(2.5).loaded();
     let mut by_hand = MseByHand::default();
-    let summary = Twin::new(loaded, &Registry::builtin())
+    let summary = Twin::new(loaded)
         .and_then(|twin| twin.run_with(None, &mut [&mut by_hand]))
         .unwrap();
     let declared = summary.metric("tracking_mse").unwrap();

@@ -70,7 +70,8 @@ fn two_speed_crank() -> TwoSpeedCrank {
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     // Either hand the controller over directly...
-    let scenario = twin::load_scenario("whitworth-crank-pi", &Overrides::default())?;
+    let builtin = Registry::builtin();
+    let scenario = twin::load_scenario("whitworth-crank-pi", &Overrides::default(), &builtin)?;
     let twin = Twin::with_controller(scenario, Box::new(two_speed_crank()))?;
     let summary = twin.run(Some(std::path::Path::new("two-speed-crank.rrd")))?;
     print!("{}", twin::summary::to_table(&summary));
@@ -88,8 +89,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         duration: Some(2.0),
         ..Default::default()
     };
-    let scenario = twin::load_scenario("whitworth-crank-pi", &overrides)?;
-    let summary = Twin::new(scenario, &registry)?.run(None)?;
+    let scenario = twin::load_scenario("whitworth-crank-pi", &overrides, &registry)?;
+    let summary = Twin::new(scenario)?.run(None)?;
     println!(
         "by name: {} turns in 2 s",
         summary.metric("crank_turns").unwrap_or(0.0)

@@ -1,32 +1,64 @@
 //! The twin engine: planar URDF mechanisms simulated in Rapier, driven through joint efforts by
 //! controllers chosen at run time, recorded to Rerun `.rrd` files.
 //!
-//! One door in: [`Twin::run`]. Only [`physics`] knows Rapier; only `recording` knows Rerun.
+//! One door in: a [`Scenario`] is put together ([`ScenarioBuilder`]), built with the controller
+//! registry into a [`LoadedScenario`] (its controller's parameters checked there), bound into a
+//! [`Twin`] and run ([`Twin::run`], [`Twin::run_with`] and [`Observer`]s), giving a
+//! [`RunSummary`]. The modules are private; this file is the surface. Only the `physics` module
+//! knows Rapier; only `recording` knows Rerun. The applications built on the library (the `twin`
+//! command line, studies, reproductions, analyses) live in the `twin-cli` crate.
 
-pub mod analysis;
-pub mod energy;
-pub mod evaluate;
-pub mod faults;
-pub mod machines;
-pub mod mechanism;
-pub mod output;
-pub mod physics;
-pub mod plant;
-pub mod recording;
-pub mod reproduce;
-pub mod run;
-pub mod scenario;
-pub mod scene;
-pub mod sensors;
-pub mod spectrum;
-pub mod study;
-pub mod summary;
-pub mod urdf;
+mod energy;
+mod faults;
+mod files;
+mod machines;
+mod mechanism;
+mod output;
+mod physics;
+mod plant;
+mod recording;
+mod run;
+mod scenario;
+mod scene;
+mod sensors;
+mod spectrum;
+mod urdf;
 
+pub use output::{same_file, OutputError, OutputFile};
+pub use recording::{LiveViewer, RecordingError};
 pub use run::{
     Divergence, Findings, Interruption, Observer, ObserverError, RunSummary, SignalLayout,
     StepView, StopFlag, Twin, TwinError,
 };
 pub use scenario::{
-    load as load_scenario, LoadedScenario, Overrides, Scenario, ScenarioBuilder, ScenarioValue,
+    load as load_scenario, LoadedScenario, MetricKind, MetricSpec, Overrides, Scenario,
+    ScenarioBuilder, ScenarioError, ScenarioValue, BUILTIN as BUILTIN_SCENARIOS,
 };
+pub use sensors::Noise;
+
+/// A run's summary as a table for people and JSON for scripts.
+pub mod summary {
+    pub use crate::run::{to_json, to_table, write_json};
+}
+
+/// The engine beneath a run, for those who check its physics or build on it: a URDF read into a
+/// [`Mechanism`](engine::Mechanism), the [`Physics`](engine::Physics) that steps it, and its
+/// mechanical energy.
+pub mod engine {
+    pub use crate::energy::mechanical_energy;
+    pub use crate::mechanism::{JointMotion, Mechanism};
+    pub use crate::physics::{MechanismState, Physics, SolverSettings};
+    pub use crate::urdf::{load_file as load_urdf_file, load_str as load_urdf, UrdfError};
+}
+
+/// Rerun files beside a run's own recording: what a run will record
+/// ([`Twin::recording_plan`]), 2D plots and study plots written by the applications, and reading
+/// back or salvaging a recording.
+pub mod recordings {
+    pub use crate::recording::{
+        inspect, salvage, write_plot, write_study_plots, Histogram, Plot2D, PlotAxis, PlotGeometry,
+        PlotLayer, PlotSpec, PlotTab, RecordingContents, SalvageReport, Scatter, SeriesRole,
+        SeriesSpec, StudyPlots,
+    };
+    pub use crate::scene::Scene;
+}

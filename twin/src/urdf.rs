@@ -74,7 +74,7 @@ pub enum UrdfError {
 /// Loads a URDF file.
 pub fn load_file(path: &Path) -> Result<Mechanism, UrdfError> {
     let file = path.display().to_string();
-    let text = crate::scenario::read_text(path).map_err(|reason| UrdfError::Read {
+    let text = crate::files::read_text(path).map_err(|reason| UrdfError::Read {
         file: file.clone(),
         reason,
     })?;

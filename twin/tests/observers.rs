@@ -1,7 +1,7 @@
 //! Observers, evaluators, typed events and the signal layout, through the library's one door.
 
 use controllers::{EventKind, EventLevel, Registry};
-use twin::scenario::BUILTIN;
+use twin::BUILTIN_SCENARIOS as BUILTIN;
 use twin::{
     Findings, LoadedScenario, Observer, ObserverError, RunSummary, Scenario, SignalLayout,
     StepView, Twin, TwinError,
@@ -16,12 +16,12 @@ fn with_extra(name: &str, extra: &str, duration: f64) -> Result<LoadedScenario, 
     let text = format!("{}\n{extra}", builtin_text(name));
     Scenario::from_toml(&text, name, None)
         .map(|s| s.duration(duration))
-        .and_then(|s| s.build())
+        .and_then(|s| s.build(&Registry::builtin()))
         .map_err(|e| e.to_string())
 }
 
 fn run_with(loaded: LoadedScenario, observers: &mut [&mut dyn Observer]) -> RunSummary {
-    Twin::new(loaded, &Registry::builtin())
+    Twin::new(loaded)
         .and_then(|twin| twin.run_with(None, observers))
         .unwrap_or_else(|e| panic!("{e}"))
 }
@@ -171,7 +171,7 @@ impl Observer for Events {
 #[test]
 fn mode_switches_and_saturation_are_typed_events() {
     let loaded = Scenario::builtin("whitworth-cutting")
-        .and_then(|s| s.build())
+        .and_then(|s| s.build(&Registry::builtin()))
         .unwrap();
     let mut events = Events::default();
     let summary = run_with(loaded, &mut [&mut events]);
@@ -218,7 +218,7 @@ fn mode_switches_and_saturation_are_typed_events() {
 fn a_divergence_is_the_last_steps_error_event() {
     let loaded = Scenario::builtin("whitworth-crank-pi")
         .and_then(|s| s.set("health.max_joint_speed", 0.5))
-        .and_then(|s| s.build())
+        .and_then(|s| s.build(&Registry::builtin()))
         .unwrap();
     let mut events = Events::default();
     let summary = run_with(loaded, &mut [&mut events]);
@@ -252,9 +252,9 @@ fn an_observers_error_stops_the_run_and_keeps_no_recording() {
     std::fs::create_dir_all(&folder).unwrap();
     let path = folder.join("stopped.rrd");
     let loaded = Scenario::builtin("whitworth-crank-pi")
-        .and_then(|s| s.build())
+        .and_then(|s| s.build(&Registry::builtin()))
         .unwrap();
-    let error = Twin::new(loaded, &Registry::builtin())
+    let error = Twin::new(loaded)
         .and_then(|twin| twin.run_with(Some(&path), &mut [&mut FailAt(10)]))
         .unwrap_err();
     assert!(matches!(error, TwinError::Observer(_)), "{error}");
@@ -273,7 +273,7 @@ fn metrics_naming_what_the_run_lacks_are_refused_before_it_starts() {
         1.0,
     )
     .unwrap();
-    let error = Twin::new(unknown, &Registry::builtin()).err().unwrap();
+    let error = Twin::new(unknown).err().unwrap();
     let text = error.to_string();
     assert!(
         text.contains("metrics `m`: no signal `ram_speed`"),
@@ -335,7 +335,7 @@ fn the_layout_names_every_slice_a_step_carries() {
         }
     }
     let loaded = Scenario::builtin("whitworth-tracking")
-        .and_then(|s| s.duration(0.05).build())
+        .and_then(|s| s.duration(0.05).build(&Registry::builtin()))
         .unwrap();
     run_with(loaded, &mut [&mut Check]);
 }

@@ -12,7 +12,8 @@
 //! `u_f = +K·e`, which realises eq (38) itself.
 
 use super::slider::SliderModel;
-use super::task::{bad, LawInput, TaskController, TaskDesign, TaskLaw, TaskParams};
+use super::task::{LawInput, TaskController, TaskDesign, TaskLaw, TaskParams};
+use crate::check::{non_negative, positive};
 use crate::design::{ackermann, second_order_polynomial};
 use crate::registry::{parse_params, Entry};
 use crate::{ControllerError, SignalSpec, Unit};
@@ -41,10 +42,18 @@ impl Default for FfcParams {
 
 /// `K` of eq (38) for the slider with mass m̄: N/m, N·s/m.
 pub fn design(params: &FfcParams, slider: &SliderModel) -> Result<[f64; 2], ControllerError> {
-    let polynomial = second_order_polynomial(params.natural_frequency, params.damping_ratio)
-        .map_err(|e| bad("ffc", e.to_string()))?;
+    let wn = positive("ffc", "natural_frequency", params.natural_frequency)?;
+    let zeta = non_negative("ffc", "damping_ratio", params.damping_ratio)?;
+    let polynomial = second_order_polynomial(wn, zeta)
+        .map_err(|e| ControllerError::parameter_table("ffc", "", e.to_string()))?;
     let (a, b) = slider.state_space();
-    let k = ackermann(&a, &b, &polynomial).map_err(|e| bad("ffc", e.to_string()))?;
+    let k = ackermann(&a, &b, &polynomial).map_err(|e| {
+        ControllerError::parameter_table(
+            "ffc",
+            "task",
+            format!("must give a slider whose poles eq (38) can place: {e}"),
+        )
+    })?;
     Ok([k[0], k[1]])
 }
 
@@ -143,12 +152,21 @@ mod tests {
 
     #[test]
     fn bad_specifications_are_rejected() {
-        for table in ["natural_frequency = 0.0", "damping_ratio = -1.0"] {
+        for (table, message) in [
+            (
+                "natural_frequency = 0.0",
+                "controller `ffc`: params.natural_frequency = 0: must be > 0",
+            ),
+            (
+                "damping_ratio = -1.0",
+                "controller `ffc`: params.damping_ratio = -1: must be ≥ 0",
+            ),
+        ] {
             let err = Registry::builtin()
-                .build("ffc", &table.parse::<toml::Table>().unwrap())
+                .build("ffc", "whitworth", &table.parse::<toml::Table>().unwrap())
                 .err()
                 .unwrap();
-            assert!(err.to_string().contains("ω_n > 0 and ξ ≥ 0"), "{err}");
+            assert_eq!(err.to_string(), message);
         }
     }
 

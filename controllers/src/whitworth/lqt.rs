@@ -9,8 +9,10 @@
 //! ξ = 0.87. As with the FFC, `u_f = +K·e` on `e = z_d − z` realises `A − BK`.
 
 use super::ffc::FeedforwardFeedback;
+use super::osmc::check_weights;
 use super::slider::SliderModel;
-use super::task::{bad, TaskController, TaskDesign, TaskParams};
+use super::task::{TaskController, TaskDesign, TaskParams};
+use crate::check::positive;
 use crate::design::{lqr, SliderWeights};
 use crate::registry::{parse_params, Entry};
 use crate::ControllerError;
@@ -41,20 +43,20 @@ impl Default for LqtParams {
 /// The LQR gain `K` (N/m, N·s/m) for the slider with mass m̄.
 pub fn design(params: &LqtParams, slider: &SliderModel) -> Result<[f64; 2], ControllerError> {
     let w = params.weights;
-    for (name, value) in [
-        ("weights.position", w.position),
-        ("weights.velocity", w.velocity),
-        ("input_weight", params.input_weight),
-    ] {
-        if !(value.is_finite() && value > 0.0) {
-            return Err(bad("lqt", format!("{name} must be > 0, got {value}")));
-        }
-    }
+    check_weights("lqt", &w)?;
+    let input_weight = positive("lqt", "input_weight", params.input_weight)?;
     let (a, b) = slider.state_space();
     let q = DMatrix::from_row_slice(2, 2, &[w.position, 0.0, 0.0, w.velocity]);
     let m = slider.nominal_mass();
-    let r = DMatrix::from_element(1, 1, params.input_weight / (m * m));
-    let design = lqr(&a, &b, &q, &r).map_err(|e| bad("lqt", e.to_string()))?;
+    let r = DMatrix::from_element(1, 1, input_weight / (m * m));
+    let design = lqr(&a, &b, &q, &r).map_err(|e| {
+        ControllerError::parameter(
+            "lqt",
+            "input_weight",
+            input_weight,
+            format!("must give a solvable regulator with weights and the task's slider: {e}"),
+        )
+    })?;
     Ok([design.gain[(0, 0)], design.gain[(0, 1)]])
 }
 
@@ -97,18 +99,21 @@ mod tests {
 
     #[test]
     fn bad_weights_are_rejected() {
-        for (table, key) in [
-            ("input_weight = 0.0", "input_weight"),
+        for (table, message) in [
+            (
+                "input_weight = 0.0",
+                "controller `lqt`: params.input_weight = 0: must be > 0",
+            ),
             (
                 "weights = { position = -1.0, velocity = 1.0 }",
-                "weights.position",
+                "controller `lqt`: params.weights.position = -1: must be > 0",
             ),
         ] {
             let err = Registry::builtin()
-                .build("lqt", &table.parse::<toml::Table>().unwrap())
+                .build("lqt", "whitworth", &table.parse::<toml::Table>().unwrap())
                 .err()
                 .unwrap();
-            assert!(err.to_string().contains(key), "{err}");
+            assert_eq!(err.to_string(), message);
         }
     }
 

@@ -1,3 +1,5 @@
+//! Whitworth quick-return shaper controllers: the crank-speed PI and the task-space controllers.
+//!
 //! Task-space control of the Whitworth quick-return shaper after Perrusquía, Flores-Campos & Yu,
 //! "Optimal sliding mode control for cutting tasks of quick-return mechanisms", ISA Transactions
 //! 122 (2022) 88–95: the ram is controlled in the task space through crank torque during the
@@ -7,8 +9,10 @@
 //!   compensator (eq 33);
 //! - [`switching`]: the stroke switching criterion (Fig. 4) and the open-loop return;
 //! - [`task`]: the reference (Algorithm 1 or the scenario's) and the controller frame shared by
-//! - [`osmc`] (the paper's controller), [`ffc`], [`lqt`] and [`smc2`] (its baselines, §6.1).
+//! - [`osmc`] (the paper's controller), [`ffc`], [`lqt`] and [`smc2`] (its baselines, §6.1);
+//! - [`crank_pi`]: the crank-speed PI the paper starts from (its §1), in joint space.
 
+pub mod crank_pi;
 pub mod ffc;
 pub mod lqt;
 pub mod osmc;

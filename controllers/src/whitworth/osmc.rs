@@ -25,7 +25,8 @@
 //! paper's own check, k₁ ≥ ‖ρ_y·F_y + m₅·g‖, compares 1/s with N and is not used.)
 
 use super::slider::SliderModel;
-use super::task::{bad, LawInput, TaskController, TaskDesign, TaskLaw, TaskParams};
+use super::task::{LawInput, TaskController, TaskDesign, TaskLaw, TaskParams};
+use crate::check::positive;
 use crate::design::{slider_hyperplane, SliderWeights};
 use crate::registry::{parse_params, Entry};
 use crate::{ControllerError, SignalSpec, Unit};
@@ -76,17 +77,22 @@ pub(crate) fn second_order_gains(
     k2: f64,
     reaching_rate: f64,
 ) -> Result<SecondOrderGains, ControllerError> {
-    for (name, value) in [("k1", k1), ("k2", k2), ("reaching_rate", reaching_rate)] {
-        if !(value.is_finite() && value > 0.0) {
-            return Err(bad(controller, format!("{name} must be > 0, got {value}")));
-        }
-    }
     Ok(SecondOrderGains {
         surface,
-        k1,
-        k2,
-        reaching_rate,
+        k1: positive(controller, "k1", k1)?,
+        k2: positive(controller, "k2", k2)?,
+        reaching_rate: positive(controller, "reaching_rate", reaching_rate)?,
     })
+}
+
+/// Checks the weights of Q (eq 20) for `controller`: both finite and > 0.
+pub(crate) fn check_weights(
+    controller: &str,
+    weights: &SliderWeights,
+) -> Result<(), ControllerError> {
+    positive(controller, "weights.position", weights.position)?;
+    positive(controller, "weights.velocity", weights.velocity)?;
+    Ok(())
 }
 
 /// The OSMC design: the optimal hyperplane for m̄ and the checked law gains.
@@ -94,8 +100,14 @@ pub fn design(
     params: &OsmcParams,
     slider: &SliderModel,
 ) -> Result<SecondOrderGains, ControllerError> {
-    let hyperplane = slider_hyperplane(slider.nominal_mass(), &params.weights)
-        .map_err(|e| bad("osmc", format!("sliding surface: {e}")))?;
+    check_weights("osmc", &params.weights)?;
+    let hyperplane = slider_hyperplane(slider.nominal_mass(), &params.weights).map_err(|e| {
+        ControllerError::parameter_table(
+            "osmc",
+            "weights",
+            format!("must give an optimal sliding surface for the task's slider: {e}"),
+        )
+    })?;
     second_order_gains(
         "osmc",
         [hyperplane.c[(0, 0)], hyperplane.c[(0, 1)]],
@@ -229,29 +241,56 @@ mod tests {
     use models::reference::Reference;
 
     fn build_with(table: &str) -> Result<Box<dyn Controller>, ControllerError> {
-        Registry::builtin().build("osmc", &table.parse::<toml::Table>().unwrap())
+        Registry::builtin().build("osmc", "whitworth", &table.parse::<toml::Table>().unwrap())
     }
 
     #[test]
-    fn design_errors_name_the_parameter() {
-        for (table, expected) in [
-            ("k1 = 0.0", "k1 must be > 0"),
-            ("k1 = -3.0", "k1 must be > 0"),
-            ("reaching_rate = 0.0", "reaching_rate must be > 0"),
-            ("k2 = -1.0", "k2 must be > 0"),
+    fn design_errors_name_the_parameter_and_its_value() {
+        for (table, key, value, reason) in [
+            ("k1 = 0.0", "k1", Some("0"), "must be > 0"),
+            ("k1 = -3.0", "k1", Some("-3"), "must be > 0"),
+            (
+                "reaching_rate = 0.0",
+                "reaching_rate",
+                Some("0"),
+                "must be > 0",
+            ),
+            ("k2 = -1.0", "k2", Some("-1"), "must be > 0"),
             (
                 "weights = { position = 0.0, velocity = 1.0 }",
-                "sliding surface",
+                "weights.position",
+                Some("0"),
+                "must be > 0",
             ),
             (
                 "task = { workpiece_length = 0.6 }",
-                "shorter than the stroke",
+                "task.workpiece_length",
+                Some("0.6"),
+                "must be shorter than the stroke",
             ),
-            ("gain = 1.0", "gain"),
         ] {
             let err = build_with(table).err().unwrap();
-            assert!(err.to_string().contains(expected), "{table}: {err}");
+            assert!(
+                matches!(
+                    &err,
+                    ControllerError::BadParameter { controller, key: k, value: v, reason: r }
+                        if controller == "osmc"
+                            && k == key
+                            && v.as_deref() == value
+                            && r.starts_with(reason)
+                ),
+                "{table}: {err}"
+            );
         }
+        assert_eq!(
+            build_with("k1 = -3").err().unwrap().to_string(),
+            "controller `osmc`: params.k1 = -3: must be > 0"
+        );
+        let err = build_with("gain = 1.0").err().unwrap();
+        assert!(
+            matches!(&err, ControllerError::BadParameter { key, .. } if key == "gain"),
+            "{err}"
+        );
     }
 
     #[test]

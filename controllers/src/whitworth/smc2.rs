@@ -11,7 +11,8 @@
 
 use super::osmc::{second_order_gains, SecondOrderGains, SecondOrderSliding};
 use super::slider::SliderModel;
-use super::task::{bad, TaskController, TaskDesign, TaskParams};
+use super::task::{TaskController, TaskDesign, TaskParams};
+use crate::check::positive;
 use crate::registry::{parse_params, Entry};
 use crate::ControllerError;
 use serde::Deserialize;
@@ -48,10 +49,7 @@ pub fn design(
     params: &Smc2Params,
     slider: &SliderModel,
 ) -> Result<SecondOrderGains, ControllerError> {
-    let c = params.surface_slope;
-    if !(c.is_finite() && c > 0.0) {
-        return Err(bad("smc2", format!("surface_slope must be > 0, got {c}")));
-    }
+    let c = positive("smc2", "surface_slope", params.surface_slope)?;
     let m = slider.nominal_mass();
     second_order_gains(
         "smc2",
@@ -99,7 +97,7 @@ mod tests {
         assert_eq!(smc2.law().gains().surface, [m * 10.0, m]);
         for table in ["surface_slope = 0.0", "k1 = 0.0", "reaching_rate = -2.0"] {
             let err = Registry::builtin()
-                .build("smc2", &table.parse::<toml::Table>().unwrap())
+                .build("smc2", "whitworth", &table.parse::<toml::Table>().unwrap())
                 .err()
                 .unwrap();
             assert!(err.to_string().contains("must be > 0"), "{err}");

@@ -21,11 +21,12 @@
 
 use super::slider::SliderModel;
 use super::switching::{Mode, ReturnPlan, StrokeSwitch};
+use crate::check::positive;
 use crate::event::Event;
 use crate::{Controller, ControllerError, Measurement, PlantInterface, SignalSpec, Unit};
-use models::velocity_profile::{ProfileParams, ProfileSample, VelocityProfile};
-use models::whitworth::Geometry;
-use models::whitworth_dynamics::{Dynamics, LinkMasses};
+use models::velocity_profile::{ProfileError, ProfileParams, ProfileSample, VelocityProfile};
+use models::whitworth::{Geometry, GeometryError};
+use models::whitworth_dynamics::{Dynamics, DynamicsError, LinkMasses};
 use serde::Deserialize;
 
 /// Where the reference comes from.
@@ -87,20 +88,14 @@ pub struct TaskDesign {
     pub return_plan: ReturnPlan,
 }
 
-/// A `BadParameters` error of `controller`.
-pub(crate) fn bad(controller: &str, reason: impl Into<String>) -> ControllerError {
-    ControllerError::BadParameters {
-        controller: controller.to_string(),
-        reason: reason.into(),
-    }
-}
-
 impl TaskDesign {
-    /// Builds the slider model, the profile and the return plan; every error names `controller`.
+    /// Builds the slider model, the profile and the return plan; every error names `controller`
+    /// and the entry of `[controller.params.task]` at fault.
     pub fn new(controller: &str, params: &TaskParams) -> Result<Self, ControllerError> {
         let dynamics = Dynamics::new(params.geometry, params.masses, params.gravity)
-            .map_err(|e| bad(controller, e.to_string()))?;
-        let slider = SliderModel::new(dynamics).map_err(|e| bad(controller, e.to_string()))?;
+            .map_err(|e| dynamics_error(controller, params, e))?;
+        let slider =
+            SliderModel::new(dynamics).map_err(|e| dynamics_error(controller, params, e))?;
         let stroke = *slider.stroke();
         let profile = VelocityProfile::new(&ProfileParams {
             x_min: stroke.top,
@@ -108,14 +103,129 @@ impl TaskDesign {
             workpiece_length: params.workpiece_length,
             velocity: params.cutting_velocity,
         })
-        .map_err(|e| bad(controller, format!("task: {e}")))?;
-        let return_plan = ReturnPlan::design(&slider, &profile, params.return_drive_torque)
-            .map_err(|e| bad(controller, format!("task: {}", e.0)))?;
+        .map_err(|e| profile_error(controller, params, e))?;
+        let drive = positive(
+            controller,
+            "task.return_drive_torque",
+            params.return_drive_torque,
+        )?;
+        // With the drive torque checked, only the linkage can make the plan fail.
+        let return_plan = ReturnPlan::design(&slider, &profile, drive)
+            .map_err(|e| ControllerError::parameter_table(controller, "task.geometry", e.0))?;
         Ok(Self {
             slider,
             profile,
             return_plan,
         })
+    }
+}
+
+/// A model error of the linkage, named by the entry of `task` that causes it.
+fn dynamics_error(controller: &str, params: &TaskParams, error: DynamicsError) -> ControllerError {
+    let parameter = |key: String, value: f64, reason: String| {
+        ControllerError::parameter(controller, key, value, reason)
+    };
+    let geometry = &params.geometry;
+    match error {
+        DynamicsError::Geometry(GeometryError::NonPositive(what)) => {
+            ControllerError::parameter_table(
+                controller,
+                "task.geometry",
+                format!("{what} must be > 0"),
+            )
+        }
+        DynamicsError::Geometry(GeometryError::CrankCannotTurn { distance, crank }) => {
+            ControllerError::parameter(
+                controller,
+                "task.geometry.slot_pivot",
+                format!("{:?}", geometry.slot_pivot),
+                format!(
+                    "must lie closer to the crank pivot than crank_length = {crank} m for the \
+                     crank to turn fully (it is {distance} m away)"
+                ),
+            )
+        }
+        DynamicsError::Geometry(GeometryError::CouplerTooShort { coupler, needed }) => parameter(
+            "task.geometry.coupler_length".into(),
+            coupler,
+            format!("must be > {needed} m to reach the guide at every slot angle"),
+        ),
+        DynamicsError::BadInertia { link, what, value } => parameter(
+            format!("task.masses.{link}.{what}"),
+            value,
+            "must be finite and ≥ 0".into(),
+        ),
+        DynamicsError::BadCentre { link, value } => parameter(
+            format!("task.masses.{link}.centre_of_mass"),
+            value,
+            "must be a finite number".into(),
+        ),
+        DynamicsError::Massless => ControllerError::parameter_table(
+            controller,
+            "task.masses",
+            "must give the linkage some inertia (every mass and izz is 0)",
+        ),
+        DynamicsError::BadGravity(gravity) => parameter(
+            "task.gravity".into(),
+            gravity,
+            "must be a finite number".into(),
+        ),
+    }
+}
+
+/// An Algorithm 1 error, named by the entry of `task` that causes it.
+fn profile_error(controller: &str, params: &TaskParams, error: ProfileError) -> ControllerError {
+    let (length, velocity) = (params.workpiece_length, params.cutting_velocity);
+    let parameter = |key: &str, value: f64, reason: String| {
+        ControllerError::parameter(controller, key, value, reason)
+    };
+    match error {
+        ProfileError::NonPositiveWorkpiece { .. } => {
+            parameter("task.workpiece_length", length, "must be > 0".into())
+        }
+        ProfileError::WorkpieceTooLong { stroke, .. } => parameter(
+            "task.workpiece_length",
+            length,
+            format!("must be shorter than the stroke L_c = {stroke} m"),
+        ),
+        ProfileError::ZeroVelocity => {
+            parameter("task.cutting_velocity", velocity, "must be non-zero".into())
+        }
+        ProfileError::WrongDirection { direction, .. } => parameter(
+            "task.cutting_velocity",
+            velocity,
+            format!("must point along the cutting stroke, which runs {direction}"),
+        ),
+        ProfileError::DegenerateBlend {
+            t_a, acceleration, ..
+        } => parameter(
+            "task.cutting_velocity",
+            velocity,
+            format!(
+                "must leave a usable blend (t_a = {t_a:e} s, blend acceleration \
+                 {acceleration:e} m/s²)"
+            ),
+        ),
+        ProfileError::NonFinite {
+            name: "workpiece_length",
+            value,
+        } => parameter(
+            "task.workpiece_length",
+            value,
+            "must be a finite number".into(),
+        ),
+        ProfileError::NonFinite {
+            name: "velocity",
+            value,
+        } => parameter(
+            "task.cutting_velocity",
+            value,
+            "must be a finite number".into(),
+        ),
+        // The stroke ends, which the linkage sets.
+        ProfileError::NonFinite { .. } | ProfileError::ZeroStroke { .. } => {
+            ControllerError::parameter_table(controller, "task.geometry", error.to_string())
+        }
     }
 }
 
@@ -303,11 +413,13 @@ impl<L: TaskLaw> Controller for TaskController<L> {
             let plan = self.design.return_plan;
             for (part, torque) in [(1, plan.part1_torque), (2, plan.part2_torque)] {
                 if torque.abs() > self.effort_limit {
-                    return Err(bad(
+                    return Err(ControllerError::parameter(
                         self.name,
+                        "task.return_drive_torque",
+                        self.params.return_drive_torque,
                         format!(
-                            "return stroke part {part} needs {torque:+.1} N·m, beyond the {} N·m \
-                             limit of joint `{}` (lower task.return_drive_torque)",
+                            "must be lower: return stroke part {part} needs {torque:+.1} N·m, \
+                             beyond the {} N·m limit of joint `{}`",
                             self.effort_limit, self.params.joint
                         ),
                     ));
@@ -421,49 +533,65 @@ mod tests {
     }
 
     #[test]
-    fn task_errors_are_raised_before_the_run() {
+    fn task_errors_name_the_task_entry() {
+        let task = |change: fn(&mut TaskParams)| {
+            let mut task = TaskParams::default();
+            change(&mut task);
+            task
+        };
+        let huge = "-1e308";
         let cases = [
             (
-                TaskParams {
-                    workpiece_length: 0.5,
-                    ..Default::default()
-                },
-                "shorter than the stroke",
+                task(|t| t.workpiece_length = 0.5),
+                "task.workpiece_length",
+                "0.5",
+                "must be shorter than the stroke",
             ),
             (
-                TaskParams {
-                    cutting_velocity: -1e308,
-                    ..Default::default()
-                },
-                "t_a",
+                task(|t| t.cutting_velocity = -1e308),
+                "task.cutting_velocity",
+                huge,
+                "must leave a usable blend (t_a",
             ),
             (
-                TaskParams {
-                    cutting_velocity: 1.25,
-                    ..Default::default()
-                },
-                "points against the stroke",
+                task(|t| t.cutting_velocity = 1.25),
+                "task.cutting_velocity",
+                "1.25",
+                "must point along the cutting stroke",
             ),
             (
-                TaskParams {
-                    return_drive_torque: 0.0,
-                    ..Default::default()
-                },
-                "return_drive_torque",
+                task(|t| t.return_drive_torque = 0.0),
+                "task.return_drive_torque",
+                "0",
+                "must be > 0",
             ),
             (
-                TaskParams {
-                    gravity: f64::INFINITY,
-                    ..Default::default()
-                },
-                "gravity",
+                task(|t| t.gravity = f64::INFINITY),
+                "task.gravity",
+                "inf",
+                "must be a finite number",
+            ),
+            (
+                task(|t| t.masses.crank.mass = -1.0),
+                "task.masses.crank.mass",
+                "-1",
+                "must be finite and ≥ 0",
+            ),
+            (
+                task(|t| t.geometry.coupler_length = 0.1),
+                "task.geometry.coupler_length",
+                "0.1",
+                "must be > ",
             ),
         ];
-        for (task, expected) in cases {
+        for (task, key, value, reason) in cases {
             let err = osmc(task).err().unwrap();
             assert!(
-                matches!(err, ControllerError::BadParameters { .. })
-                    && err.to_string().contains(expected),
+                matches!(
+                    &err,
+                    ControllerError::BadParameter { controller, key: k, value: Some(v), reason: r }
+                        if controller == "osmc" && k == key && v == value && r.starts_with(reason)
+                ),
                 "{err}"
             );
         }
@@ -477,7 +605,12 @@ mod tests {
         })
         .unwrap();
         let err = controller.reset(&Plant::twin().interface()).unwrap_err();
-        assert!(err.to_string().contains("return stroke part 1"), "{err}");
+        assert!(
+            matches!(&err, ControllerError::BadParameter { key, value: Some(value), reason, .. }
+                if key == "task.return_drive_torque" && value == "400"
+                    && reason.contains("return stroke part 1")),
+            "{err}"
+        );
     }
 
     #[test]

@@ -48,7 +48,7 @@
 //! modelled (they would add G²·J_m to each joint), nor gear losses.
 //!
 //! **Tuning of the correction** (`arm-milling`): the joint servos are computed-torque loops with a
-//! triple pole at ω = 80 rad/s (`controllers::arm_servo`: the arm's mass matrix at every pose, so
+//! triple pole at ω = 80 rad/s (`controllers::arm::servo`: the arm's mass matrix at every pose, so
 //! the design holds stretched out as at the contour). With the paper's `T_K2 = 1/ω_c` the
 //! shoulder current peaks at 18.08 A, 0.5 % over the 18 A tolerance; `T_K2` = 50 ms keeps it at
 //! 18.0 A at the same finishing time, so the scenario sets it. `T_K1` = 2 ms, `T_K3` = 20 ms, `T_K4` = 5 ms (the paper

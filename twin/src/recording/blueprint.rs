@@ -271,7 +271,9 @@ pub(super) fn send(
         .blueprint()
         .memory()
         .map_err(error)?;
-    // The viewer identifies blueprint data by this timeline.
+    // The viewer identifies blueprint data by this timeline; no wall-clock `log_time` beside it,
+    // so that the same layout writes the same bytes.
+    blueprint.set_log_time_enabled(false);
     blueprint.set_time_sequence("blueprint", 0);
     let root = match root {
         Node::View { .. } => container(ContainerKind::Tabs, "", vec![root], vec![]),
@@ -303,6 +305,14 @@ pub(super) fn send(
     let Some(blueprint_id) = messages.first().map(|m| m.store_id().clone()) else {
         return Err("the layout produced no messages".to_owned());
     };
+    // Rerun forwards these messages on another channel than the stream's chunks; flushing on
+    // both sides puts them in one place in the file, the same on every run.
+    let flush = |stream: &RecordingStream| {
+        stream
+            .flush_blocking()
+            .map_err(|err| super::error_chain(&err))
+    };
+    flush(stream)?;
     stream.send_blueprint(
         messages,
         BlueprintActivationCommand {
@@ -311,7 +321,7 @@ pub(super) fn send(
             make_default: true,
         },
     );
-    Ok(())
+    flush(stream)
 }
 
 /// The side panels folded away (the views get the window); the time panel folded on

@@ -24,6 +24,8 @@
 //! [`salvage`] completes what a killed run left.
 
 mod blueprint;
+mod footer;
+mod ids;
 mod inspect;
 mod live;
 mod plots;
@@ -100,6 +102,8 @@ const MAX_TRACE_POINTS: usize = 4000;
 pub struct RecordingLayout {
     /// Application id / recording name (the scenario name).
     pub app: String,
+    /// The recording's id: the same for the same inputs (two such files are byte-identical).
+    pub recording_id: String,
     /// The scenario TOML, stored as a static text document (provenance).
     pub scenario_toml: String,
     /// Links to draw: name and shapes in the link frame (drawn as 2D line strips).
@@ -249,7 +253,7 @@ pub struct RecordingOutcome {
 }
 
 /// Writes one run to an `.rrd` file, atomically: the data goes to a temporary file beside `path`
-/// ([`Recorder::part_path`]), which [`Recorder::finish`] completes and renames onto `path`. A file at
+/// (`X.rrd.<random>.part`), which [`Recorder::finish`] completes and renames onto `path`. A file at
 /// `path` is therefore always a complete recording; on an error, or when the recorder is dropped
 /// without `finish` (a panic), the temporary file is removed. A run killed outright (`kill -9`)
 /// leaves it behind, and [`salvage`] makes a complete recording of it.
@@ -261,6 +265,8 @@ pub struct RecordingOutcome {
 pub struct Recorder {
     path: PathBuf,
     /// The temporary file being written, as named on disk.
+    /// Where the data is until `finish` (the tests read the file being written).
+    #[cfg(test)]
     part_path: PathBuf,
     /// `None` once closed (dropping it drains Rerun's pipeline into the file).
     stream: Option<RecordingStream>,
@@ -349,6 +355,7 @@ impl Recorder {
             reason,
         };
         let part = PartFile::create(path).map_err(create_error)?;
+        #[cfg(test)]
         let part_path = part.temp_path();
         let file = FileState::new(part);
         let (feed, live) = match &layout.live {
@@ -361,16 +368,23 @@ impl Recorder {
         let (links, groups, markers) = buffers(layout);
         let sink: Box<dyn LogSink> = Box::new(FileWriter::new(file.clone(), feed));
         let app = application_id(&layout.app);
+        // A fixed id and no start time: the file holds what the run computed, not when.
         let stream = RecordingStreamBuilder::new(app.clone())
-            .recording_name(layout.app.as_str())
+            .recording_id(layout.recording_id.as_str())
             // Ignore the `RERUN` environment variable: the file is the run's product.
             .enabled(true)
-            // Bounds the data queued towards the file (the default allows 100 MiB).
+            // Bounds the data queued towards the file (the default allows 100 MiB); no flush on
+            // a clock tick, so that chunks end where the run flushes, the same every time.
             .batcher_config(ChunkBatcherConfig {
                 max_bytes_in_flight: MAX_BYTES_IN_FLIGHT,
+                flush_tick: std::time::Duration::MAX,
                 ..ChunkBatcherConfig::DEFAULT
             })
             .set_sinks(vec![sink])
+            .map_err(|err| create_error(error_chain(&err)))?;
+        stream.set_log_time_enabled(false);
+        stream
+            .send_recording_name(layout.app.as_str())
             .map_err(|err| create_error(error_chain(&err)))?;
         let plots: Vec<(String, &PlotSpec)> = layout
             .plots
@@ -385,6 +399,7 @@ impl Recorder {
         log_layout(&stream, layout).map_err(create_error)?;
         Ok(Recorder {
             path: path.to_path_buf(),
+            #[cfg(test)]
             part_path,
             stream: Some(stream),
             file,
@@ -402,6 +417,7 @@ impl Recorder {
 
     /// Where the run is being written until [`Recorder::finish`] renames it onto its path: what a
     /// killed run leaves behind, for [`salvage`].
+    #[cfg(test)]
     pub fn part_path(&self) -> &Path {
         &self.part_path
     }

@@ -56,6 +56,7 @@ fn layout(links: usize, groups: &[(&str, usize)]) -> RecordingLayout {
     };
     RecordingLayout {
         app: "recording_test".to_owned(),
+        recording_id: "test-run".into(),
         live: None,
         scenario_toml: "name = \"recording_test\"\n[run]\nduration = 1.0\n".to_owned(),
         links: (0..links)
@@ -525,8 +526,8 @@ const THIRTY_SIGNALS: [(&str, usize); 7] = [
 #[test]
 fn a_failed_write_stops_the_run_with_the_os_reason() {
     let dir = scratch_dir("write-failure");
-    // dash counts 512-byte blocks: 2 MiB.
-    let out = run_child("write_failure_child", "trap '' XFSZ; ulimit -f 4096", &dir);
+    // dash counts 512-byte blocks: 1 MiB.
+    let out = run_child("write_failure_child", "trap '' XFSZ; ulimit -f 2048", &dir);
     assert!(out.status.success(), "the child failed");
     let stdout = String::from_utf8_lossy(&out.stdout);
     assert!(stdout.contains("File too large"), "{stdout}");
@@ -563,8 +564,8 @@ fn write_failure_child() {
     println!("push {step} failed: {err}");
     assert!(matches!(&err, RecordingError::Write { path: p, .. } if p == &path));
     assert!(err.to_string().contains(&path.display().to_string()));
-    // The first buffer (~0.5 kB per sample in the file) already passes 2 MiB: its failure is
-    // reported at the latest by the push sending the second.
+    // The first buffer (~0.37 kB of noise per sample in the file) already passes 1 MiB: its
+    // failure is reported at the latest by the push sending the second.
     assert!(
         step <= 2 * FLUSH_EVERY as i64,
         "found only at sample {step}"

@@ -2,15 +2,16 @@
 //!
 //! Rerun's file sink writes on a thread of its own and, when a write fails, only ever reports
 //! "File-writer thread shut down prematurely", at the end of the run. Here the same encoder
-//! (`re_log_encoding::Encoder`, which builds the same footer and manifest as the `FileSink`) writes
-//! straight to the file from Rerun's forwarding thread, and the first failure is kept with the OS's
-//! reason for the recorder to report at once.
+//! (`re_log_encoding::Encoder`) writes straight to the file from Rerun's forwarding thread, and the
+//! first failure is kept with the OS's reason for the recorder to report at once. Unlike the
+//! `FileSink`'s, the ids come from the run ([`Renumbering`]) and the footer's manifests are in a
+//! fixed order ([`super::footer`]): the same run writes the same bytes.
 //!
 //! Files are written under a unique temporary name next to their final one and renamed onto it
 //! once complete, so a file at the final path is always a complete recording.
 
 use std::fs::File;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::sync::{Arc, Condvar, Mutex, OnceLock, PoisonError};
 use std::time::Duration;
 
@@ -20,12 +21,14 @@ use rerun::sink::{LogSink, SinkFlushError};
 use tempfile::TempPath;
 
 use super::error_chain;
+use super::ids::Renumbering;
 use super::live::LiveFeed;
 
 /// An `.rrd` stream being written to a temporary file beside its final path.
 pub(super) struct PartFile {
     encoder: Encoder<File>,
     temp: TempPath,
+    ids: Renumbering,
 }
 
 impl PartFile {
@@ -39,13 +42,19 @@ impl PartFile {
             file,
         )
         .map_err(|err| encode_reason(&err))?;
-        Ok(PartFile { encoder, temp })
+
+        Ok(PartFile {
+            encoder,
+            temp,
+            ids: Renumbering::new(),
+        })
     }
 
-    /// Encodes one message into the file.
+    /// Encodes one message into the file, with ids that follow from the run ([`Renumbering`]).
     pub(super) fn append(&mut self, msg: &LogMsg) -> Result<(), String> {
+        let renumbered = self.ids.apply(msg)?;
         self.encoder
-            .append(msg)
+            .append(renumbered.as_ref().unwrap_or(msg))
             .map(|_| ())
             .map_err(|err| encode_reason(&err))
     }
@@ -55,10 +64,11 @@ impl PartFile {
     /// removed.
     pub(super) fn complete(mut self, path: &Path) -> Result<u64, String> {
         self.encoder.finish().map_err(|err| encode_reason(&err))?;
-        let file = self
+        let mut file = self
             .encoder
             .into_inner()
             .map_err(|err| encode_reason(&err))?;
+        super::footer::order_manifests(&mut file)?;
         // Synced before the rename, so that a crash cannot leave an empty or partial file there.
         file.sync_all().map_err(|err| err.to_string())?;
         let bytes = file.metadata().map_err(|err| err.to_string())?.len();
@@ -82,7 +92,8 @@ impl PartFile {
     }
 
     /// The temporary file's path: where the data is until [`PartFile::complete`].
-    pub(super) fn temp_path(&self) -> PathBuf {
+    #[cfg(test)]
+    pub(super) fn temp_path(&self) -> std::path::PathBuf {
         self.temp.to_path_buf()
     }
 }

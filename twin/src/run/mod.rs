@@ -3,16 +3,18 @@
 //! through the drives) → observers (the recording, the scenario's evaluators, the caller's) →
 //! world.
 
+mod evaluate;
 mod layout;
 mod observer;
 mod record;
 mod session;
 mod stats;
+mod summary;
 
 pub use layout::SignalLayout;
 pub use observer::{Findings, Observer, ObserverError, StepView};
+pub use summary::{to_json, to_table, write_json, Divergence, Interruption, RunSummary};
 
-use crate::evaluate::Evaluator;
 use crate::faults::FaultSet;
 use crate::machines::{self, Machine, MachineError};
 use crate::mechanism::{JointMotion, Mechanism};
@@ -22,7 +24,8 @@ use crate::scenario::{LoadedScenario, Scenario, ScenarioError};
 use crate::scene::{Bounds, Scene};
 use crate::sensors::Sensor;
 use crate::urdf::{self, UrdfError};
-use controllers::{Actuator, Controller, ControllerError, EffortKind, PlantInterface, Registry};
+use controllers::{Actuator, Controller, ControllerError, EffortKind, PlantInterface};
+use evaluate::Evaluator;
 use layout::LayoutParts;
 use record::{RecordingObserver, RecordingParts};
 use session::Session;
@@ -79,87 +82,14 @@ pub enum TwinError {
     Observer(ObserverError),
 }
 
-/// Why a run stopped early: the first signal that left its bounds.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Divergence {
-    pub step: usize,
-    pub time: f64,
-    pub signal: String,
-    pub value: f64,
-}
-
-impl std::fmt::Display for Divergence {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        write!(
-            f,
-            "run diverged at step {} (t = {:.6} s): {} = {}",
-            self.step, self.time, self.signal, self.value
-        )
-    }
-}
-
-/// A run stopped on request (SIGINT/SIGTERM in the CLI) before its end.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Interruption {
-    /// The signal number that asked for the stop (2: SIGINT, 15: SIGTERM).
-    pub signal: usize,
-    /// The last step simulated and recorded, and its time, s.
-    pub step: usize,
-    pub time: f64,
-}
-
-impl std::fmt::Display for Interruption {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        let name = match self.signal {
-            2 => "SIGINT".to_string(),
-            15 => "SIGTERM".to_string(),
-            other => format!("signal {other}"),
-        };
-        write!(
-            f,
-            "interrupted by {name} at step {} (t = {:.6} s)",
-            self.step, self.time
-        )
-    }
-}
-
 /// A flag a run polls once per step: 0 goes on, any other value (a signal number) stops it.
 pub type StopFlag = std::sync::Arc<std::sync::atomic::AtomicUsize>;
-
-/// What a run reports.
-#[derive(Debug, Clone, PartialEq)]
-pub struct RunSummary {
-    pub scenario: String,
-    pub controller: String,
-    pub dt: f64,
-    pub steps: usize,
-    pub wall_s: f64,
-    pub steps_per_s: f64,
-    pub metrics: Vec<(String, f64)>,
-    pub failure: Option<Divergence>,
-    /// Set when the run was stopped on request before its end.
-    pub interrupted: Option<Interruption>,
-    /// What went wrong beside the run without failing it (a live viewer that did not take it).
-    pub warnings: Vec<String>,
-    /// FNV-1a digest of every recorded sample's bits: equal digests, identical series.
-    pub series_digest: u64,
-}
-
-impl RunSummary {
-    pub fn metric(&self, name: &str) -> Option<f64> {
-        self.metrics
-            .iter()
-            .find(|(n, _)| n == name)
-            .map(|(_, v)| *v)
-    }
-}
 
 /// A scenario bound to its mechanism, machine and controller, ready to run.
 pub struct Twin {
     loaded: LoadedScenario,
     mechanism: Mechanism,
     machine: Box<dyn Machine>,
-    controller: Box<dyn Controller>,
     plant: PlantInterface,
     layout: SignalLayout,
     /// Per plant signal: its sensor, if the scenario gives one.
@@ -179,24 +109,20 @@ pub struct Twin {
 }
 
 impl Twin {
-    /// Builds the twin with a controller from `registry` (the scenario names it).
-    pub fn new(loaded: LoadedScenario, registry: &Registry) -> Result<Self, TwinError> {
-        let spec = &loaded.scenario.controller;
-        let controller =
-            registry
-                .build(&spec.name, &spec.params)
-                .map_err(|source| TwinError::Controller {
-                    context: loaded.source.clone(),
-                    source,
-                })?;
-        Self::with_controller(loaded, controller)
+    /// Builds the twin around a controller the caller made (a user's own, for example), in place
+    /// of the scenario's.
+    pub fn with_controller(
+        mut loaded: LoadedScenario,
+        controller: Box<dyn Controller>,
+    ) -> Result<Self, TwinError> {
+        loaded.controller = controller;
+        Self::new(loaded)
     }
 
-    /// Builds the twin around a controller the caller made (a user's own, for example).
-    pub fn with_controller(
-        loaded: LoadedScenario,
-        mut controller: Box<dyn Controller>,
-    ) -> Result<Self, TwinError> {
+    /// Builds the twin around the scenario's controller (built with the scenario): the URDF's
+    /// mechanism, the machine, the signal layout, sensors, metrics and faults, and the controller
+    /// bound to the plant.
+    pub fn new(mut loaded: LoadedScenario) -> Result<Self, TwinError> {
         let scenario = &loaded.scenario;
         // A scenario entry naming what the URDF or the run lacks.
         let binding = |reason: String| TwinError::Binding {
@@ -224,13 +150,12 @@ impl Twin {
             actuators,
         };
         let sensors = bind_sensors(&loaded, &plant)?;
-        controller
+        let context = format!("{} (URDF {})", loaded.source, loaded.urdf_source);
+        loaded
+            .controller
             .reset(&plant)
-            .map_err(|source| TwinError::Controller {
-                context: format!("{} (URDF {})", loaded.source, loaded.urdf_source),
-                source,
-            })?;
-        layout.set_internals(controller.internals());
+            .map_err(|source| TwinError::Controller { context, source })?;
+        layout.set_internals(loaded.controller.internals());
         let evaluators = scenario
             .metrics
             .iter()
@@ -251,7 +176,6 @@ impl Twin {
             loaded,
             mechanism,
             machine,
-            controller,
             plant,
             layout,
             sensors,
@@ -335,7 +259,7 @@ impl Twin {
         let scenario = &self.loaded.scenario;
         let mut summary = RunSummary {
             scenario: scenario.name.clone(),
-            controller: self.controller.name().to_string(),
+            controller: self.loaded.controller.name().to_string(),
             dt: scenario.dt,
             steps: ending.steps,
             wall_s,
@@ -355,23 +279,25 @@ impl Twin {
 
     fn recording_observer(&self, path: &Path) -> RecordingObserver {
         let scenario = &self.loaded.scenario;
+        let mut digest = stats::Digest::default();
+        digest.add_bytes(self.loaded.toml.as_bytes());
+        let scenario_digest = digest.0;
         let start_text = format!(
-            "run started: scenario {}, machine {}, controller {}, scenario digest {:016x} \
-             (FNV-1a of its TOML), dt {} s, {} s",
+            "run started: scenario {}, machine {}, controller {}, scenario digest \
+             {scenario_digest:016x} (FNV-1a of its TOML), dt {} s, {} s",
             scenario.name,
             scenario.machine,
-            self.controller.name(),
-            {
-                let mut digest = stats::Digest::default();
-                digest.add_bytes(self.loaded.toml.as_bytes());
-                digest.0
-            },
+            self.loaded.controller.name(),
             scenario.dt,
             scenario.duration,
         );
+        // The same inputs make the same recording, id included; other inputs another id.
+        digest.add_bytes(self.loaded.urdf_text.as_bytes());
+        digest.add_bytes(self.loaded.controller.name().as_bytes());
         RecordingObserver::new(RecordingParts {
             path: path.to_path_buf(),
             app: scenario.name.clone(),
+            recording_id: format!("{}-{:016x}", scenario.name, digest.0),
             scenario_toml: self.loaded.toml.clone(),
             links: self
                 .mechanism

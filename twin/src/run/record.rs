@@ -48,6 +48,8 @@ struct MarkerValues {
 pub struct RecordingParts {
     pub path: PathBuf,
     pub app: String,
+    /// Follows from the run's inputs, so that the same inputs write the same bytes.
+    pub recording_id: String,
     pub scenario_toml: String,
     pub links: Vec<(String, Vec<Shape>)>,
     pub scene: Scene,
@@ -62,6 +64,7 @@ impl RecordingObserver {
             path: parts.path,
             layout: RecordingLayout {
                 app: parts.app,
+                recording_id: parts.recording_id,
                 scenario_toml: parts.scenario_toml,
                 links: parts.links,
                 scene: Some(parts.scene),
@@ -396,7 +399,7 @@ fn summary_markdown(summary: &RunSummary) -> String {
     format!(
         "# {}\n\n```\n{}```\n",
         summary.scenario,
-        crate::summary::to_table(summary)
+        super::summary::recorded_table(summary)
     )
 }
 

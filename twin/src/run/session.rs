@@ -195,7 +195,7 @@ impl<'t> Session<'t> {
         }
         twin.faults.sensors(time, &mut values.measured);
         values.commanded.fill(0.0);
-        twin.controller.update(
+        twin.loaded.controller.update(
             &Measurement {
                 time,
                 signals: &values.measured,
@@ -203,8 +203,10 @@ impl<'t> Session<'t> {
             self.control_period,
             &mut values.commanded,
         );
-        twin.controller.internal_values(&mut values.internals);
-        twin.controller.drain_events(&mut values.events);
+        twin.loaded
+            .controller
+            .internal_values(&mut values.internals);
+        twin.loaded.controller.drain_events(&mut values.events);
     }
 
     /// Clips the commands to the actuator limits, with an event when one starts or stops

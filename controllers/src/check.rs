@@ -1,0 +1,78 @@
+//! Range checks of controller parameters: each returns the value, or a
+//! [`ControllerError::BadParameter`] that names the key and the value.
+
+use crate::ControllerError;
+
+/// `value` is a finite number (TOML rejects none, a Rust caller may pass any).
+pub(crate) fn finite(controller: &str, key: &str, value: f64) -> Result<f64, ControllerError> {
+    if value.is_finite() {
+        Ok(value)
+    } else {
+        Err(ControllerError::parameter(
+            controller,
+            key,
+            value,
+            "must be a finite number",
+        ))
+    }
+}
+
+/// `value` is finite and > 0.
+pub(crate) fn positive(controller: &str, key: &str, value: f64) -> Result<f64, ControllerError> {
+    if finite(controller, key, value)? > 0.0 {
+        Ok(value)
+    } else {
+        Err(ControllerError::parameter(
+            controller,
+            key,
+            value,
+            "must be > 0",
+        ))
+    }
+}
+
+/// `value` is finite and ≥ 0.
+pub(crate) fn non_negative(
+    controller: &str,
+    key: &str,
+    value: f64,
+) -> Result<f64, ControllerError> {
+    if finite(controller, key, value)? >= 0.0 {
+        Ok(value)
+    } else {
+        Err(ControllerError::parameter(
+            controller,
+            key,
+            value,
+            "must be ≥ 0",
+        ))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn checks_name_the_key_and_the_value() {
+        assert_eq!(positive("c", "k", 2.0), Ok(2.0));
+        assert_eq!(non_negative("c", "k", 0.0), Ok(0.0));
+        let message = |e: ControllerError| e.to_string();
+        assert_eq!(
+            message(positive("c", "k", 0.0).unwrap_err()),
+            "controller `c`: params.k = 0: must be > 0"
+        );
+        assert_eq!(
+            message(non_negative("c", "a.b", -1.5).unwrap_err()),
+            "controller `c`: params.a.b = -1.5: must be ≥ 0"
+        );
+        assert_eq!(
+            message(positive("c", "k", f64::NAN).unwrap_err()),
+            "controller `c`: params.k = NaN: must be a finite number"
+        );
+        assert_eq!(
+            message(positive("c", "k", -1e300).unwrap_err()),
+            "controller `c`: params.k = -1e300: must be > 0"
+        );
+    }
+}

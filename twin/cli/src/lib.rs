@@ -1,0 +1,7 @@
+//! The applications built on the twin engine: the studies behind `twin sweep`, the seed papers'
+//! reproductions behind `twin reproduce`, and the offline analyses behind `twin analyze`. The
+//! `twin` binary (`main.rs`) is their command line.
+
+pub mod analysis;
+pub mod reproduce;
+pub mod study;

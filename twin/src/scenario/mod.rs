@@ -1,0 +1,203 @@
+//! Scenarios: a TOML file naming the machine, its URDF, the controller and its parameters, the
+//! reference, process parameters, sensors, timing and recording options.
+//!
+//! This file is the spec (what a scenario holds); `checks` says what a valid one is, `builder`
+//! puts one together from TOML and typed changes and builds its controller, `builtin` holds the
+//! shipped scenarios and URDFs, `metrics` the figures a run is judged by.
+
+mod builder;
+mod builtin;
+mod checks;
+mod metrics;
+#[cfg(test)]
+mod tests;
+
+pub use builder::{load, Overrides, ScenarioBuilder, ScenarioValue};
+pub use builtin::BUILTIN;
+pub use metrics::{MetricKind, MetricSpec};
+
+use crate::faults::FaultSpec;
+use crate::plant::PlantValues;
+use crate::sensors::SensorSpec;
+use controllers::Controller;
+use models::reference::Reference;
+use serde::Deserialize;
+use std::collections::BTreeMap;
+use thiserror::Error;
+
+#[derive(Debug, Error, Clone, PartialEq)]
+pub enum ScenarioError {
+    #[error("unknown scenario `{name}` (built in: {known}; or give a .toml file)")]
+    Unknown { name: String, known: String },
+    #[error("{file}: cannot read: {reason}")]
+    Read { file: String, reason: String },
+    #[error("{file}: {reason}")]
+    Invalid { file: String, reason: String },
+    #[error("--set {assignment}: {reason}")]
+    BadSet { assignment: String, reason: String },
+    #[error("scenario key `{key}`: {reason}")]
+    BadKey { key: String, reason: String },
+}
+
+/// Largest RK4 substep count per physics step.
+pub const MAX_SUBSTEPS: usize = 64;
+/// Default cap on physics steps per run (`max_steps`): about a minute of the fastest machine,
+/// and a recording of a few GB at `recording.every = 1`.
+pub const DEFAULT_MAX_STEPS: usize = 10_000_000;
+
+#[derive(Debug, Clone, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct Scenario {
+    pub name: String,
+    #[serde(default)]
+    pub description: String,
+    /// Machine kind: `whitworth`, ….
+    pub machine: String,
+    /// URDF path, relative to the scenario file (built-in files are found by this path too).
+    pub urdf: String,
+    /// Simulated time, s.
+    pub duration: f64,
+    /// Physics step, s.
+    pub dt: f64,
+    /// Controller period, s; a whole multiple of dt (zero-order hold). Defaults to dt.
+    pub control_period: Option<f64>,
+    #[serde(default = "default_gravity")]
+    pub gravity: [f64; 2],
+    /// RK4 substeps per physics step (efforts and process loads are held over the step).
+    #[serde(default = "default_substeps")]
+    pub substeps: usize,
+    /// Refuse runs of more physics steps than this (duration / dt); raise it for a long run.
+    #[serde(default = "default_max_steps")]
+    pub max_steps: usize,
+    /// Seed of the sensor noise.
+    #[serde(default)]
+    pub seed: u64,
+    pub controller: ControllerSpec,
+    /// Reference given to the controller as `reference`, `reference_rate`, `reference_acceleration`.
+    pub reference: Option<Reference>,
+    /// Machine-specific process parameters (contact forces, geometry checks).
+    #[serde(default)]
+    pub process: toml::Table,
+    /// Sensor models by measured signal name.
+    #[serde(default)]
+    pub sensors: BTreeMap<String, SensorSpec>,
+    #[serde(default)]
+    pub recording: RecordingOptions,
+    #[serde(default)]
+    pub health: HealthLimits,
+    /// The figures the run is judged by (`[[metrics]]`), computed by evaluators.
+    #[serde(default)]
+    pub metrics: Vec<MetricSpec>,
+    /// Values replacing the URDF's (`[plant.link.<name>]`, `[plant.joint.<name>]`); `set` and
+    /// `--set` also take them as `urdf.link.<name>.mass=…`.
+    #[serde(default)]
+    pub plant: PlantValues,
+    /// The state a joint starts in (`[initial.<joint>] position, velocity`; default: at rest at
+    /// the URDF's zero), such as a spindle already at speed when the cut begins.
+    #[serde(default)]
+    pub initial: BTreeMap<String, InitialJoint>,
+    /// Injected faults (`[[faults]]`), see [`crate::faults`].
+    #[serde(default)]
+    pub faults: Vec<FaultSpec>,
+}
+
+/// A joint's state at t = 0, in the joint's own sense (rad or m, rad/s or m/s).
+#[derive(Debug, Clone, Copy, Default, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields, default)]
+pub struct InitialJoint {
+    pub position: f64,
+    pub velocity: f64,
+}
+
+#[derive(Debug, Clone, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct ControllerSpec {
+    pub name: String,
+    #[serde(default)]
+    pub params: toml::Table,
+}
+
+#[derive(Debug, Clone, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields, default)]
+pub struct RecordingOptions {
+    /// Record every n-th physics step.
+    pub every: usize,
+}
+
+impl Default for RecordingOptions {
+    fn default() -> Self {
+        Self { every: 1 }
+    }
+}
+
+/// Beyond these the run is declared diverged and stopped.
+#[derive(Debug, Clone, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields, default)]
+pub struct HealthLimits {
+    /// Largest |joint velocity|, rad/s or m/s.
+    pub max_joint_speed: f64,
+    /// Largest loop-closure gap, m.
+    pub max_loop_gap: f64,
+}
+
+impl Default for HealthLimits {
+    fn default() -> Self {
+        Self {
+            max_joint_speed: 1e3,
+            max_loop_gap: 1e-2,
+        }
+    }
+}
+
+fn default_gravity() -> [f64; 2] {
+    [0.0, -9.81]
+}
+
+fn default_substeps() -> usize {
+    1
+}
+
+fn default_max_steps() -> usize {
+    DEFAULT_MAX_STEPS
+}
+
+/// A scenario ready to run: parsed, checked, its controller built from its checked parameters,
+/// with its text (for provenance) and its URDF text.
+pub struct LoadedScenario {
+    pub scenario: Scenario,
+    /// The TOML as run: the text as written, or re-serialised after changes (`set`, `--set`).
+    pub toml: String,
+    /// Where the scenario came from, for messages.
+    pub source: String,
+    pub urdf_text: String,
+    /// The URDF's path or built-in name, for messages.
+    pub urdf_source: String,
+    /// The scenario's controller, designed from its parameters; bound to the plant by the twin.
+    pub(crate) controller: Box<dyn Controller>,
+}
+
+impl std::fmt::Debug for LoadedScenario {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("LoadedScenario")
+            .field("scenario", &self.scenario)
+            .field("source", &self.source)
+            .field("urdf_source", &self.urdf_source)
+            .field("controller", &self.controller.name())
+            .finish_non_exhaustive()
+    }
+}
+
+impl Scenario {
+    pub fn control_period(&self) -> f64 {
+        self.control_period.unwrap_or(self.dt)
+    }
+
+    /// Physics steps per control period.
+    pub fn control_every(&self) -> usize {
+        (self.control_period() / self.dt).round() as usize
+    }
+
+    pub fn steps(&self) -> usize {
+        (self.duration / self.dt).round() as usize
+    }
+}

@@ -1,0 +1,194 @@
+//! The library's shape, read from its source: no two modules import each other, directly or
+//! around a circle (in the engine and in the applications on it), and the library does not
+//! depend on the applications' crates.
+
+use std::collections::{BTreeMap, BTreeSet};
+use std::path::{Path, PathBuf};
+
+/// Every `.rs` file under `dir`.
+fn sources(dir: &Path) -> Vec<PathBuf> {
+    let mut files = Vec::new();
+    for entry in std::fs::read_dir(dir).unwrap() {
+        let path = entry.unwrap().path();
+        if path.is_dir() {
+            files.extend(sources(&path));
+        } else if path.extension().is_some_and(|e| e == "rs") {
+            files.push(path);
+        }
+    }
+    files
+}
+
+/// The module a file is, as a path of names from the crate root (`run::evaluate`).
+fn module_of(root: &Path, file: &Path) -> Vec<String> {
+    let relative = file.strip_prefix(root).unwrap().with_extension("");
+    let mut parts: Vec<String> = relative
+        .components()
+        .map(|c| c.as_os_str().to_string_lossy().into_owned())
+        .collect();
+    if matches!(
+        parts.last().map(String::as_str),
+        Some("mod" | "lib" | "main")
+    ) {
+        parts.pop();
+    }
+    parts
+}
+
+/// The modules a file's code (not its comments) refers to through `crate::a::b` and `super::a`
+/// paths, as paths from the crate root.
+fn references(module: &[String], text: &str) -> BTreeSet<Vec<String>> {
+    let code: String = text
+        .lines()
+        .filter(|line| !line.trim_start().starts_with("//"))
+        .collect::<Vec<_>>()
+        .join("\n");
+    let text = code.as_str();
+    let mut found = BTreeSet::new();
+    // The lower-case names of a path (`run::summary` of `run::summary::RunSummary`).
+    let words = |mut rest: &str| -> Vec<String> {
+        let mut path = Vec::new();
+        loop {
+            let name: String = rest
+                .chars()
+                .take_while(|c| c.is_alphanumeric() || *c == '_')
+                .collect();
+            if !name.starts_with(|c: char| c.is_ascii_lowercase()) {
+                return path;
+            }
+            rest = &rest[name.len()..];
+            path.push(name);
+            match rest.strip_prefix("::") {
+                Some(after) => rest = after,
+                None => return path,
+            }
+        }
+    };
+    for (at, _) in text.match_indices("crate::") {
+        found.insert(words(&text[at + 7..]));
+    }
+    for (at, _) in text.match_indices("super::") {
+        let parent = &module[..module.len().saturating_sub(1)];
+        let mut path = parent.to_vec();
+        path.extend(words(&text[at + 7..]));
+        found.insert(path);
+    }
+    found
+}
+
+/// The module-to-module graph: an edge from each module to every other module (at any depth
+/// shared with it) it refers to, ignoring references into itself or its own submodules.
+fn graph(root: &Path) -> BTreeMap<Vec<String>, BTreeSet<Vec<String>>> {
+    let mut edges: BTreeMap<Vec<String>, BTreeSet<Vec<String>>> = BTreeMap::new();
+    for file in sources(root) {
+        let module = module_of(root, &file);
+        let text = std::fs::read_to_string(&file).unwrap();
+        for target in references(&module, &text) {
+            // Compare at the first level where the two paths part.
+            let common = module
+                .iter()
+                .zip(&target)
+                .take_while(|(a, b)| a == b)
+                .count();
+            if common == target.len() || common == module.len() {
+                continue; // itself, an ancestor (declaring it), or its own submodule
+            }
+            edges
+                .entry(module[..=common].to_vec())
+                .or_default()
+                .insert(target[..=common].to_vec());
+        }
+    }
+    edges
+}
+
+/// A circle in the graph, if any, as the modules around it.
+fn circle(edges: &BTreeMap<Vec<String>, BTreeSet<Vec<String>>>) -> Option<Vec<String>> {
+    fn visit(
+        node: &Vec<String>,
+        edges: &BTreeMap<Vec<String>, BTreeSet<Vec<String>>>,
+        path: &mut Vec<Vec<String>>,
+        done: &mut BTreeSet<Vec<String>>,
+    ) -> Option<Vec<String>> {
+        if let Some(start) = path.iter().position(|n| n == node) {
+            return Some(path[start..].iter().map(|m| m.join("::")).collect());
+        }
+        if !done.insert(node.clone()) {
+            return None;
+        }
+        path.push(node.clone());
+        for next in edges.get(node).into_iter().flatten() {
+            if let Some(found) = visit(next, edges, path, done) {
+                return Some(found);
+            }
+        }
+        path.pop();
+        None
+    }
+    let mut done = BTreeSet::new();
+    edges
+        .keys()
+        .find_map(|node| visit(node, edges, &mut Vec::new(), &mut done))
+}
+
+#[test]
+fn no_module_imports_another_that_imports_it_back() {
+    let manifest = Path::new(env!("CARGO_MANIFEST_DIR"));
+    for root in [manifest.join("src"), manifest.join("cli/src")] {
+        let edges = graph(&root);
+        assert!(
+            edges.len() > 2,
+            "{}: too few modules read: {edges:?}",
+            root.display()
+        );
+        if let Some(found) = circle(&edges) {
+            panic!("{}: import circle {}", root.display(), found.join(" → "));
+        }
+    }
+}
+
+#[test]
+fn the_circle_finder_finds_a_circle() {
+    let mut edges = BTreeMap::new();
+    let name = |n: &str| vec![n.to_string()];
+    edges.insert(name("a"), BTreeSet::from([name("b")]));
+    edges.insert(name("b"), BTreeSet::from([name("c")]));
+    edges.insert(name("c"), BTreeSet::from([name("a")]));
+    assert_eq!(
+        circle(&edges),
+        Some(vec!["a".into(), "b".into(), "c".into()])
+    );
+    edges.insert(name("c"), BTreeSet::new());
+    assert_eq!(circle(&edges), None);
+    let module = ["analysis".to_string(), "lathe".to_string()];
+    let found = references(
+        &module,
+        "use super::lathe_output::write;\n/// [`crate::scenario`]\ncrate::run::Twin",
+    );
+    let path = |names: &[&str]| names.iter().map(|n| n.to_string()).collect::<Vec<_>>();
+    assert!(
+        found.contains(&path(&["analysis", "lathe_output", "write"])),
+        "{found:?}"
+    );
+    assert!(found.contains(&path(&["run"])));
+    assert!(!found.iter().any(|p| p[0] == "scenario"), "{found:?}");
+}
+
+#[test]
+fn the_library_leaves_the_command_line_crates_to_the_applications() {
+    let manifest =
+        std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("Cargo.toml")).unwrap();
+    let dependencies = manifest
+        .split("[dependencies]")
+        .nth(1)
+        .unwrap()
+        .split("\n[")
+        .next()
+        .unwrap();
+    for crate_name in ["clap", "indicatif", "signal-hook", "rayon"] {
+        assert!(
+            !dependencies.contains(&format!("\n{crate_name}")),
+            "the library depends on {crate_name}"
+        );
+    }
+}
