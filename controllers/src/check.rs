@@ -5,30 +5,19 @@ use crate::ControllerError;
 
 /// `value` is a finite number (TOML rejects none, a Rust caller may pass any).
 pub(crate) fn finite(controller: &str, key: &str, value: f64) -> Result<f64, ControllerError> {
-    if value.is_finite() {
-        Ok(value)
-    } else {
-        Err(ControllerError::parameter(
-            controller,
-            key,
-            value,
-            "must be a finite number",
-        ))
-    }
+    require(
+        controller,
+        key,
+        value,
+        value.is_finite(),
+        "must be a finite number",
+    )
 }
 
 /// `value` is finite and > 0.
 pub(crate) fn positive(controller: &str, key: &str, value: f64) -> Result<f64, ControllerError> {
-    if finite(controller, key, value)? > 0.0 {
-        Ok(value)
-    } else {
-        Err(ControllerError::parameter(
-            controller,
-            key,
-            value,
-            "must be > 0",
-        ))
-    }
+    let value = finite(controller, key, value)?;
+    require(controller, key, value, value > 0.0, "must be > 0")
 }
 
 /// `value` is finite and ≥ 0.
@@ -37,15 +26,22 @@ pub(crate) fn non_negative(
     key: &str,
     value: f64,
 ) -> Result<f64, ControllerError> {
-    if finite(controller, key, value)? >= 0.0 {
+    let value = finite(controller, key, value)?;
+    require(controller, key, value, value >= 0.0, "must be ≥ 0")
+}
+
+/// `value` when `holds`, else the error naming `key`, the value and `reason`.
+pub(crate) fn require(
+    controller: &str,
+    key: &str,
+    value: f64,
+    holds: bool,
+    reason: &str,
+) -> Result<f64, ControllerError> {
+    if holds {
         Ok(value)
     } else {
-        Err(ControllerError::parameter(
-            controller,
-            key,
-            value,
-            "must be ≥ 0",
-        ))
+        Err(ControllerError::parameter(controller, key, value, reason))
     }
 }
 

@@ -29,6 +29,9 @@ pub enum EventKind {
     FaultOnset { name: String },
     /// An injected fault ended.
     FaultCleared { name: String },
+    /// Two links or bodies that may not touch started to (a crash: not an adjacent pair, not in
+    /// the scenario's `[[allowed_contacts]]`); the text says how deep and where.
+    Collision { a: String, b: String },
     /// Anything else worth a line in the log.
     Note,
 }

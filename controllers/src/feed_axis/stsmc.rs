@@ -29,7 +29,7 @@
 //! τ_v = 1 ms): it settles the start from rest within a few milliseconds, whereas W ≥ 3 N/s or
 //! Λ ≥ 50 make the sampled loop, which sees the velocity through the filter, chatter.
 use super::p_pi::{FeedAxis, FeedAxisSample};
-use crate::check::{finite, non_negative, positive};
+use crate::check::{finite, non_negative, positive, require};
 use crate::filters::FirstOrderFilter;
 use crate::registry::{parse_params, Entry};
 use crate::{Controller, ControllerError, Measurement, PlantInterface, SignalSpec, Unit};
@@ -150,16 +150,14 @@ pub(crate) fn design_for(
 
 /// A coefficient of the sliding surface's `s² + μ s + λ`: Hurwitz exactly when both are > 0.
 fn hurwitz(controller: &str, key: &str, value: f64) -> Result<f64, ControllerError> {
-    if finite(controller, key, value)? > 0.0 {
-        Ok(value)
-    } else {
-        Err(ControllerError::parameter(
-            controller,
-            key,
-            value,
-            "must be > 0: the sliding surface s² + μ s + λ is not Hurwitz otherwise",
-        ))
-    }
+    let value = finite(controller, key, value)?;
+    require(
+        controller,
+        key,
+        value,
+        value > 0.0,
+        "must be > 0: the sliding surface s² + μ s + λ is not Hurwitz otherwise",
+    )
 }
 
 fn sign(value: f64) -> f64 {
