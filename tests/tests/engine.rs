@@ -30,14 +30,7 @@ fn arm(damped: bool) -> Mechanism {
 }
 
 fn physics(mechanism: &Mechanism, dt: f64) -> Physics {
-    Physics::new(
-        mechanism,
-        SolverSettings {
-            dt,
-            gravity: GRAVITY,
-            substeps: 1,
-        },
-    )
+    Physics::new(mechanism, SolverSettings::exact(dt, GRAVITY, 1))
 }
 
 /// The arm as a serial chain, read from the same URDF values (frames, masses, inertias, damping).

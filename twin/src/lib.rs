@@ -25,14 +25,16 @@ mod spectrum;
 mod urdf;
 
 pub use output::{same_file, OutputError, OutputFile};
+pub use physics::Collision;
 pub use recording::{LiveViewer, RecordingError};
 pub use run::{
-    Divergence, Findings, Interruption, Observer, ObserverError, RunSummary, SignalLayout,
-    StepView, StopFlag, Twin, TwinError,
+    Divergence, FailureKind, Findings, Interruption, Observer, ObserverError, RunSummary,
+    SignalLayout, StepView, StopFlag, Twin, TwinError,
 };
 pub use scenario::{
-    load as load_scenario, LoadedScenario, MetricKind, MetricSpec, Overrides, Scenario,
-    ScenarioBuilder, ScenarioError, ScenarioValue, BUILTIN as BUILTIN_SCENARIOS,
+    load as load_scenario, AllowedContact, BodyKind, BodyShape, BodySpec, ContactOptions, Engine,
+    LoadedScenario, MetricKind, MetricSpec, Overrides, Scenario, ScenarioBuilder, ScenarioError,
+    ScenarioValue, SolverOptions, BUILTIN as BUILTIN_SCENARIOS,
 };
 pub use sensors::Noise;
 
@@ -46,7 +48,7 @@ pub mod summary {
 /// mechanical energy.
 pub mod engine {
     pub use crate::energy::mechanical_energy;
-    pub use crate::mechanism::{JointMotion, Mechanism};
+    pub use crate::mechanism::{JointMotion, Mechanism, Outline, Pose2, Shape};
     pub use crate::physics::{MechanismState, Physics, SolverSettings};
     pub use crate::urdf::{load_file as load_urdf_file, load_str as load_urdf, UrdfError};
 }

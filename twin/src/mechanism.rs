@@ -57,6 +57,53 @@ pub fn wrap_angle(angle: f64) -> f64 {
     }
 }
 
+/// The convex hull of `points`, counter-clockwise, without repeated or collinear points
+/// (Andrew's monotone chain: no panic on any input, non-finite points are left out).
+pub fn convex_hull(points: &[[f64; 2]]) -> Vec<[f64; 2]> {
+    let mut sorted: Vec<[f64; 2]> = points
+        .iter()
+        .copied()
+        .filter(|p| p.iter().all(|v| v.is_finite()))
+        .collect();
+    sorted.sort_by(|a, b| a[0].total_cmp(&b[0]).then(a[1].total_cmp(&b[1])));
+    sorted.dedup();
+    if sorted.len() < 3 {
+        return sorted;
+    }
+    let turns_left = |o: [f64; 2], a: [f64; 2], b: [f64; 2]| {
+        (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0]) > 0.0
+    };
+    let mut hull: Vec<[f64; 2]> = Vec::with_capacity(2 * sorted.len());
+    // The lower chain left to right, then the upper one back, each point kept only while the
+    // chain turns left at it.
+    let add = |hull: &mut Vec<[f64; 2]>, floor: usize, p: [f64; 2]| {
+        while hull.len() >= floor && !turns_left(hull[hull.len() - 2], hull[hull.len() - 1], p) {
+            hull.pop();
+        }
+        hull.push(p);
+    };
+    for &p in &sorted {
+        add(&mut hull, 2, p);
+    }
+    let floor = hull.len() + 1;
+    for &p in sorted.iter().rev().skip(1) {
+        add(&mut hull, floor, p);
+    }
+    hull.pop();
+    hull
+}
+
+/// A polygon's area (shoelace formula), positive when its points run counter-clockwise, m².
+pub fn polygon_area(points: &[[f64; 2]]) -> f64 {
+    let n = points.len();
+    0.5 * (0..n)
+        .map(|i| {
+            let ([x0, y0], [x1, y1]) = (points[i], points[(i + 1) % n]);
+            x0 * y1 - x1 * y0
+        })
+        .sum::<f64>()
+}
+
 /// A drawable or collision outline in a link's frame.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Shape {
@@ -70,20 +117,38 @@ impl Shape {
     /// Points bounding the outline, in the link's frame: a rectangle's corners, a circle's
     /// bounding square's.
     pub fn extent(&self) -> [[f64; 2]; 4] {
-        let (hx, hy) = match self.outline {
-            Outline::Rectangle { width, height } => (width / 2.0, height / 2.0),
-            Outline::Circle { radius } => (radius, radius),
+        let ([x0, y0], [x1, y1]) = match &self.outline {
+            Outline::Rectangle { width, height } => {
+                ([-width / 2.0, -height / 2.0], [width / 2.0, height / 2.0])
+            }
+            Outline::Circle { radius } => ([-radius, -radius], [*radius, *radius]),
+            Outline::Polygon { points } => points.iter().fold(
+                ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]),
+                |([x0, y0], [x1, y1]), &[x, y]| ([x0.min(x), y0.min(y)], [x1.max(x), y1.max(y)]),
+            ),
         };
-        [[-hx, -hy], [hx, -hy], [hx, hy], [-hx, hy]].map(|[x, y]| self.origin.apply(x, y))
+        [[x0, y0], [x1, y0], [x1, y1], [x0, y1]].map(|[x, y]| self.origin.apply(x, y))
+    }
+
+    /// The same shape placed in the frame `pose` maps to its parent (a body's shape in the world).
+    pub fn placed(&self, pose: &Pose2) -> Shape {
+        Shape {
+            origin: pose.compose(&self.origin),
+            ..self.clone()
+        }
     }
 }
 
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, PartialEq)]
 pub enum Outline {
-    /// A URDF box seen from above: full sizes along the shape's x and y.
+    /// A URDF box seen from above, or a cylinder lying in the plane: full sizes along the
+    /// shape's x and y.
     Rectangle { width: f64, height: f64 },
     /// A URDF cylinder (axis along z) or sphere.
     Circle { radius: f64 },
+    /// A convex polygon, counter-clockwise, in the shape's frame: a mesh's outline on the plane
+    /// (the convex hull of its vertices) or a scenario body's `points`.
+    Polygon { points: Vec<[f64; 2]> },
 }
 
 /// Mass properties about the centre of mass, in the link's frame.
@@ -272,5 +337,25 @@ mod tests {
         assert!((p[0] - q[0]).abs() < 1e-15 && (p[1] - q[1]).abs() < 1e-15);
         let [dx, dy] = ab.rotate(1.0, 0.0);
         assert!((dx - ab.angle.cos()).abs() < 1e-15 && (dy - ab.angle.sin()).abs() < 1e-15);
+    }
+
+    #[test]
+    fn the_hull_keeps_the_corners_counter_clockwise() {
+        let points = [
+            [0.0, 0.0],
+            [2.0, 0.0],
+            [1.0, 0.5],
+            [2.0, 1.0],
+            [1.0, 0.0],
+            [0.0, 1.0],
+            [0.0, 1.0],
+            [f64::NAN, 3.0],
+        ];
+        let hull = convex_hull(&points);
+        assert_eq!(hull, vec![[0.0, 0.0], [2.0, 0.0], [2.0, 1.0], [0.0, 1.0]]);
+        assert_eq!(polygon_area(&hull), 2.0);
+        let line = convex_hull(&[[0.0, 0.0], [1.0, 1.0], [2.0, 2.0]]);
+        assert_eq!(line, vec![[0.0, 0.0], [2.0, 2.0]]);
+        assert!(convex_hull(&[]).is_empty());
     }
 }

@@ -39,6 +39,11 @@
 //!
 //! `stiffness` (N/m or N·m/rad, ≥ 0) and `reference` (the relaxed coordinate, m or rad, default
 //! 0) are in the joint's own sense; the joint's `<dynamics damping>` is the damper beside it.
+//!
+//! `<visual>` and `<collision>` geometry becomes outlines on the plane ([`geometry`]): boxes,
+//! cylinders and spheres, and meshes (STL, OBJ) as the convex hull of their vertices.
+
+mod geometry;
 
 use crate::mechanism::{
     Inertial, Joint, JointMotion, JointSpring, Link, LoopJoint, Mechanism, Outline, Pose2, Shape,
@@ -81,7 +86,8 @@ pub fn load_file(path: &Path) -> Result<Mechanism, UrdfError> {
     load_str(&text, &file)
 }
 
-/// Loads URDF text; `source` names it in errors.
+/// Loads URDF text; `source` names it in errors. When `source` is the path of a file, the meshes
+/// it names are read from that file's folder, otherwise from the working folder.
 pub fn load_str(text: &str, source: &str) -> Result<Mechanism, UrdfError> {
     let malformed = |reason: String| UrdfError::Malformed {
         file: source.to_string(),
@@ -97,7 +103,13 @@ pub fn load_str(text: &str, source: &str) -> Result<Mechanism, UrdfError> {
         )));
     }
     let robot = urdf_rs::read_from_string(text).map_err(|e| malformed(e.to_string()))?;
-    Loader { file: source }.build(&robot, &document)
+    let path = Path::new(source);
+    let folder = path.is_file().then(|| path.parent()).flatten();
+    Loader {
+        file: source,
+        folder,
+    }
+    .build(&robot, &document)
 }
 
 /// Fails on elements nested deeper than [`MAX_XML_DEPTH`], in one pass over the text that
@@ -157,6 +169,8 @@ fn tag_end(bytes: &[u8], start: usize) -> usize {
 
 struct Loader<'a> {
     file: &'a str,
+    /// Where mesh paths are read from (the working folder when `None`).
+    folder: Option<&'a Path>,
 }
 
 impl Loader<'_> {
@@ -366,6 +380,8 @@ impl Loader<'_> {
         })
     }
 
+    /// A `<visual>` or `<collision>` geometry at its origin: the origin must be finite and in the
+    /// plane (no z offset); its roll and pitch may stand the shape up (see [`geometry`]).
     fn shape(
         &self,
         origin: &urdf_rs::Pose,
@@ -373,51 +389,39 @@ impl Loader<'_> {
         color: Option<[f32; 4]>,
         element: &str,
     ) -> Result<Shape, UrdfError> {
-        let origin = self.planar_pose(origin, element)?;
-        let positive = |name: &str, value: f64| {
-            if value > 0.0 && value.is_finite() {
-                Ok(value)
-            } else {
-                Err(self.invalid(
-                    element.to_string(),
-                    format!("{name} must be > 0, got {value}"),
-                ))
-            }
-        };
-        let outline = match geometry {
-            urdf_rs::Geometry::Box { size } => Outline::Rectangle {
-                width: positive("box size x", size.0[0])?,
-                height: positive("box size y", size.0[1])?,
-            },
-            urdf_rs::Geometry::Cylinder { radius, .. } | urdf_rs::Geometry::Sphere { radius } => {
-                Outline::Circle {
-                    radius: positive("radius", *radius)?,
-                }
-            }
-            other => {
-                return Err(self.invalid(
-                    element.to_string(),
-                    format!("unsupported geometry {other:?} (box, cylinder and sphere are planar)"),
-                ))
-            }
-        };
+        let [x, y, z] = self.finite_pose(origin, element)?;
+        if z.abs() > PLANAR_TOLERANCE {
+            return Err(self.invalid(
+                element.to_string(),
+                format!("not planar: z offset is {z} (must be 0)"),
+            ));
+        }
+        let (outline, angle) =
+            geometry::outline(geometry, origin.rpy.0, PLANAR_TOLERANCE, self.folder)
+                .map_err(|reason| self.invalid(element.to_string(), reason))?;
         Ok(Shape {
-            origin,
+            origin: Pose2::new(x, y, angle),
             outline,
             color,
         })
     }
 
-    /// A URDF pose that must lie in the xy plane.
-    fn planar_pose(&self, pose: &urdf_rs::Pose, element: &str) -> Result<Pose2, UrdfError> {
-        let [x, y, z] = pose.xyz.0;
-        let [roll, pitch, yaw] = pose.rpy.0;
+    /// A pose's xyz, once every number of it is known to be finite.
+    fn finite_pose(&self, pose: &urdf_rs::Pose, element: &str) -> Result<[f64; 3], UrdfError> {
         if pose.xyz.0.iter().chain(&pose.rpy.0).any(|v| !v.is_finite()) {
+            let ([x, y, z], [roll, pitch, yaw]) = (pose.xyz.0, pose.rpy.0);
             return Err(self.invalid(
                 element.to_string(),
                 format!("origin xyz/rpy must be finite numbers, got xyz {x} {y} {z}, rpy {roll} {pitch} {yaw}"),
             ));
         }
+        Ok(pose.xyz.0)
+    }
+
+    /// A URDF pose that must lie in the xy plane.
+    fn planar_pose(&self, pose: &urdf_rs::Pose, element: &str) -> Result<Pose2, UrdfError> {
+        let [x, y, z] = self.finite_pose(pose, element)?;
+        let [roll, pitch, yaw] = pose.rpy.0;
         for (name, value) in [("z offset", z), ("roll", roll), ("pitch", pitch)] {
             if value.abs() > PLANAR_TOLERANCE {
                 return Err(self.invalid(

@@ -5,7 +5,7 @@ use controllers::Registry;
 use std::path::PathBuf;
 use std::process::ExitCode;
 use twin::{
-    same_file, summary, LiveViewer, OutputFile, Overrides, Scenario, StopFlag, Twin,
+    same_file, summary, Engine, LiveViewer, OutputFile, Overrides, Scenario, StopFlag, Twin,
     BUILTIN_SCENARIOS,
 };
 use twin_cli::{analysis, reproduce, study};
@@ -59,6 +59,9 @@ struct SweepArgs {
     /// Set a scenario value for every run (as `twin run --set`), before the axes.
     #[arg(long = "set", value_name = "KEY=VALUE")]
     set: Vec<String>,
+    /// The engine of every run (as `twin run --engine`).
+    #[arg(long, value_name = "exact|rapier", value_parser = parse_engine)]
+    engine: Option<Engine>,
     /// A grid axis: KEY=lin(a,b,n) | log(a,b,n) | [v1, v2, …] | v1,v2,… (`controller=osmc,smc2`
     /// switches controllers); grid axes span a Cartesian product, the last varying fastest.
     #[arg(long = "grid", value_name = "KEY=VALUES")]
@@ -130,6 +133,9 @@ struct ReproduceArgs {
     /// Folder for the recordings and report.json.
     #[arg(long, default_value = "reproduce")]
     out_dir: PathBuf,
+    /// The engine of every run (as `twin run --engine`); default: each scenario's own.
+    #[arg(long, value_name = "exact|rapier", value_parser = parse_engine)]
+    engine: Option<Engine>,
 }
 
 #[derive(clap::Args)]
@@ -142,6 +148,11 @@ struct RunArgs {
     /// Override a scenario value: a dotted key into the TOML, e.g. controller.params.crank_speed=-3.
     #[arg(long = "set", value_name = "KEY=VALUE")]
     set: Vec<String>,
+    /// The engine that steps the mechanism: exact (RK4, loops closed to 1e-12 m) or rapier
+    /// (Rapier's pipeline, with contacts); the same as --set solver.engine=…, given before the
+    /// --set values.
+    #[arg(long, value_name = "exact|rapier", value_parser = parse_engine)]
+    engine: Option<Engine>,
     /// Simulated time, s.
     #[arg(long, allow_hyphen_values = true)]
     duration: Option<f64>,
@@ -167,6 +178,17 @@ struct BenchArgs {
     /// Simulated time per measurement, s.
     #[arg(long, default_value_t = 10.0, allow_hyphen_values = true)]
     duration: f64,
+    /// The engine of every measurement (as `twin run --engine`); default: each scenario's own.
+    #[arg(long, value_name = "exact|rapier", value_parser = parse_engine)]
+    engine: Option<Engine>,
+}
+
+/// `--engine`: a name a scenario's `solver.engine` takes.
+fn parse_engine(name: &str) -> Result<Engine, String> {
+    [Engine::Exact, Engine::Rapier]
+        .into_iter()
+        .find(|engine| engine.name() == name)
+        .ok_or_else(|| format!("unknown engine `{name}`; choose exact or rapier"))
 }
 
 /// Why the command failed: the exit code and a one-line message.
@@ -306,7 +328,7 @@ fn run(args: RunArgs, registry: &Registry) -> Result<ExitCode, Failure> {
     let overrides = Overrides {
         controller: args.controller,
         duration: args.duration,
-        set: args.set,
+        set: [reproduce::engine_override(args.engine), args.set].concat(),
     };
     let loaded = Scenario::open(&args.scenario)?
         .overrides(&overrides)?
@@ -388,25 +410,40 @@ fn bench(args: BenchArgs, registry: &Registry) -> Result<ExitCode, Failure> {
         args.scenarios.clone()
     };
     println!(
-        "{:<24} {:>9} {:>8} {:>8} {:>14} {:>14}",
-        "scenario", "dt (s)", "substeps", "steps", "steps/s bare", "steps/s rec."
+        "{:<24} {:>6} {:>9} {:>8} {:>8} {:>14} {:>14}",
+        "scenario", "engine", "dt (s)", "substeps", "steps", "steps/s bare", "steps/s rec."
     );
     for name in &names {
         let mut rates = [0.0; 2];
-        let mut shape = (0.0, 0, 0);
+        let mut shape = (Engine::Exact, 0.0, 0, 0);
         for (rate, recording) in rates.iter_mut().zip([None, Some(out.as_path())]) {
             let loaded = Scenario::open(name)
+                .and_then(|builder| match args.engine {
+                    Some(engine) => builder.set("solver.engine", engine.name()),
+                    None => Ok(builder),
+                })
                 .and_then(|builder| builder.duration(args.duration).build(registry))
                 .map_err(|e| e.to_string())?;
-            shape = (loaded.scenario.dt, loaded.scenario.substeps, 0);
+            let solver = &loaded.scenario.solver;
+            let substeps = match solver.engine {
+                Engine::Exact => loaded.scenario.substeps,
+                Engine::Rapier => solver.rapier_substeps,
+            };
+            shape = (solver.engine, loaded.scenario.dt, substeps, 0);
             let twin = Twin::new(loaded).map_err(|e| e.to_string())?;
             let result = twin.run(recording).map_err(|e| e.to_string())?;
-            shape.2 = result.steps;
+            shape.3 = result.steps;
             *rate = result.steps_per_s;
         }
         println!(
-            "{:<24} {:>9} {:>8} {:>8} {:>14.0} {:>14.0}",
-            name, shape.0, shape.1, shape.2, rates[0], rates[1]
+            "{:<24} {:>6} {:>9} {:>8} {:>8} {:>14.0} {:>14.0}",
+            name,
+            shape.0.name(),
+            shape.1,
+            shape.2,
+            shape.3,
+            rates[0],
+            rates[1]
         );
     }
     let _ = std::fs::remove_dir_all(&folder);
@@ -417,7 +454,7 @@ fn bench(args: BenchArgs, registry: &Registry) -> Result<ExitCode, Failure> {
 }
 
 fn reproduce(args: ReproduceArgs, registry: &Registry) -> Result<ExitCode, Failure> {
-    let report = reproduce::reproduce(&args.paper, &args.out_dir, registry)?;
+    let report = reproduce::reproduce(&args.paper, &args.out_dir, registry, args.engine)?;
     print!("{}", reproduce::to_table(&report));
     println!("recordings and report.json: {}", args.out_dir.display());
     Ok(ExitCode::SUCCESS)
@@ -444,9 +481,10 @@ fn sweep(args: SweepArgs, registry: &Registry) -> Result<ExitCode, Failure> {
         .map(|s| Shard::parse(s, args.shard_count))
         .transpose()
         .map_err(Failure::usage)?;
+    let set = [reproduce::engine_override(args.engine), args.set].concat();
     let study = Study::new(
         &scenario,
-        &args.set,
+        &set,
         &args.grid,
         &args.random,
         args.samples,

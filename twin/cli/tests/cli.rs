@@ -371,3 +371,56 @@ fn a_bad_controller_parameter_is_refused_before_the_run_with_its_key_path() {
         "bad-gain",
     );
 }
+
+#[test]
+fn arm_crash_reports_the_pair_and_stops_with_exit_3_under_the_flag() {
+    let dir = scratch("crash");
+    let output = twin(
+        &["run", "arm-crash", "--duration", "3", "--summary", "s.json"],
+        &dir,
+    );
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(output.status.success(), "{stderr}");
+    assert!(
+        stderr.contains("warning: collision: `hand` and `clamp` touched first, at t = 1.467 s"),
+        "{stderr}"
+    );
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("s.json")).unwrap()).unwrap();
+    assert_eq!(summary["status"], "ok");
+    assert_eq!(summary["metrics"]["first_collision_time"], 1.467);
+    assert!(summary["metrics"]["collisions"].as_f64().unwrap() >= 1.0);
+
+    let output = twin(
+        &[
+            "run",
+            "arm-crash",
+            "--set",
+            "health.stop_on_collision=true",
+            "--summary",
+            "stop.json",
+            "--out",
+            "stop.rrd",
+        ],
+        &dir,
+    );
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert_eq!(output.status.code(), Some(3), "{stderr}");
+    let error = stderr.lines().find(|l| l.starts_with("error: ")).unwrap();
+    assert!(
+        error.starts_with(
+            "error: run stopped at step 1467 (t = 1.467000 s): collision hand/clamp, "
+        ) && error.ends_with("µm deep"),
+        "{error}"
+    );
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("stop.json")).unwrap()).unwrap();
+    assert_eq!(summary["status"], "failed");
+    assert_eq!(summary["time_reached"], 1.467);
+    assert!(summary["failure"]
+        .as_str()
+        .unwrap()
+        .contains("collision hand/clamp"));
+    // The recording is complete up to the crash.
+    assert!(std::fs::metadata(dir.join("stop.rrd")).unwrap().len() > 0);
+}

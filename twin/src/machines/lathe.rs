@@ -431,6 +431,7 @@ mod tests {
             link_velocities: vec![[0.0; 2]; 4],
             link_angular_velocities: vec![0.0; 4],
             loop_gaps: Vec::new(),
+            body_poses: Vec::new(),
         }
     }
 

@@ -8,6 +8,8 @@
 //! - `/mechanism/scene/<drawing>`: what is machined (static line strips, machine coordinates);
 //! - `/mechanism/markers/<marker>` and `/mechanism/traces/<marker>`: points placed every sample
 //!   and the path they covered so far;
+//! - `/mechanism/bodies/<body>`: the scenario's bodies, drawn and posed like links;
+//! - `/mechanism/collisions`: every crash so far, a point labelled with its pair, from its step;
 //! - `/signals/<tab>/<plot>`: one multi-instance `Scalars` per plot, all of one display unit
 //!   ([`PlotSpec`]), with static `SeriesLines` naming (with the unit) and colouring the series;
 //! - `/events`: a `TextLog`, from the run's start (scenario, controller, parameters digest) to its
@@ -70,6 +72,12 @@ const SIGNALS: &str = "signals";
 const EVENTS: &str = "events";
 const SCENARIO: &str = "scenario";
 const SUMMARY: &str = "summary";
+/// Where the crashes are drawn.
+const COLLISIONS: &str = "mechanism/collisions";
+/// The crashes' colour (red: nothing else in the view is).
+const COLLISION_COLOR: [u8; 3] = [255, 40, 40];
+/// The bodies' colour when their shapes have none (neutral beside the links' palette).
+const BODY_COLOR: [u8; 3] = [158, 163, 178];
 /// Sequence timeline: the physics step index.
 const STEP: &str = "step";
 /// Duration timeline: simulated time.
@@ -108,6 +116,8 @@ pub struct RecordingLayout {
     pub scenario_toml: String,
     /// Links to draw: name and shapes in the link frame (drawn as 2D line strips).
     pub links: Vec<(String, Vec<Shape>)>,
+    /// The scenario's bodies, drawn like links: name and shapes in the body's frame.
+    pub bodies: Vec<(String, Vec<Shape>)>,
     /// The mechanism view's frame, drawings and markers; the positions of its markers are passed
     /// to [`Recorder::push`] in the order of `scene.markers`.
     pub scene: Option<Scene>,
@@ -423,7 +433,7 @@ impl Recorder {
     }
 
     /// Buffers one sample: step index, simulated time (s), every link's world pose (in the order of
-    /// `layout.links`), the SI values the plots' series pick from and the scene markers'
+    /// `layout.links`, then the bodies' in the order of `layout.bodies`), the SI values the plots' series pick from and the scene markers'
     /// positions (in the order of `layout.scene.markers`). Values are recorded in their plot's
     /// unit (NaN and infinities included); missing ones are recorded as NaN. A missing or
     /// non-finite pose or marker position is left out, so it stays drawn at its last finite
@@ -524,6 +534,41 @@ impl Recorder {
             .and_then(|columns| {
                 stream
                     .send_columns(EVENTS, timeline_columns(&[step], &[time]), columns)
+                    .map_err(|err| error_chain(&err))
+            })
+            .map_err(|reason| self.write_error(reason))?;
+        self.check()
+    }
+
+    /// Draws the crashes so far (world points, each with its pair's label) from this step on.
+    /// Fails, like [`Recorder::push`], once a write to the file has failed.
+    pub fn collisions(
+        &mut self,
+        step: i64,
+        time: f64,
+        collisions: &[([f64; 2], String)],
+    ) -> Result<(), RecordingError> {
+        let Some(stream) = &self.stream else {
+            return Ok(());
+        };
+        let time = if time.is_finite() {
+            time
+        } else {
+            self.last_time
+        };
+        let points = collisions.iter().map(|([x, y], _)| [*x as f32, *y as f32]);
+        let [r, g, b] = COLLISION_COLOR;
+        let count = collisions.len();
+        Points2D::update_fields()
+            .with_positions(points)
+            .with_labels(collisions.iter().map(|(_, pair)| pair.as_str()))
+            .with_colors(std::iter::repeat_n(Color::from_rgb(r, g, b), count))
+            .with_radii(std::iter::repeat_n(Radius::new_ui_points(6.0), count))
+            .columns([count])
+            .map_err(|err| error_chain(&err))
+            .and_then(|columns| {
+                stream
+                    .send_columns(COLLISIONS, timeline_columns(&[step], &[time]), columns)
                     .map_err(|err| error_chain(&err))
             })
             .map_err(|reason| self.write_error(reason))?;
@@ -710,16 +755,15 @@ impl Drop for Recorder {
     }
 }
 
-/// The empty sample buffers of the layout's links, plots and scene markers.
+/// The empty sample buffers of the layout's links and bodies, plots and scene markers.
 fn buffers(layout: &RecordingLayout) -> (Vec<LinkPoses>, Vec<Group>, Vec<MarkerBuffer>) {
     let links = layout
         .links
         .iter()
-        .map(|(name, _)| LinkPoses {
-            entity: EntityPath::new(vec![
-                EntityPathPart::new(MECHANISM),
-                EntityPathPart::new(name.as_str()),
-            ]),
+        .map(|(name, _)| link_entity(name))
+        .chain(layout.bodies.iter().map(|(name, _)| body_entity(name)))
+        .map(|entity| LinkPoses {
+            entity,
             translations: Vec::with_capacity(3 * FLUSH_EVERY),
             angles: Vec::with_capacity(FLUSH_EVERY),
             all_finite: true,
@@ -751,6 +795,19 @@ fn buffers(layout: &RecordingLayout) -> (Vec<LinkPoses>, Vec<Group>, Vec<MarkerB
     (links, groups, markers)
 }
 
+/// `/mechanism/<link>`.
+fn link_entity(name: &str) -> EntityPath {
+    EntityPath::new(vec![
+        EntityPathPart::new(MECHANISM),
+        EntityPathPart::new(name),
+    ])
+}
+
+/// `/mechanism/bodies/<body>`.
+fn body_entity(name: &str) -> EntityPath {
+    scene_entity("bodies", name)
+}
+
 /// `/mechanism/<kind>/<name>`.
 fn scene_entity(kind: &str, name: &str) -> EntityPath {
     EntityPath::new(vec![
@@ -775,11 +832,12 @@ fn log_layout(stream: &RecordingStream, layout: &RecordingLayout) -> Result<(), 
     for (index, (name, shapes)) in layout.links.iter().enumerate() {
         let color = LINK_PALETTE[index % LINK_PALETTE.len()];
         if let Some(strips) = link_strips(shapes, color) {
-            let entity = EntityPath::new(vec![
-                EntityPathPart::new(MECHANISM),
-                EntityPathPart::new(name.as_str()),
-            ]);
-            log_static(entity, &strips.with_labels([name.as_str()]))?;
+            log_static(link_entity(name), &strips.with_labels([name.as_str()]))?;
+        }
+    }
+    for (name, shapes) in &layout.bodies {
+        if let Some(strips) = link_strips(shapes, BODY_COLOR) {
+            log_static(body_entity(name), &strips.with_labels([name.as_str()]))?;
         }
     }
     if let Some(scene) = &layout.scene {
@@ -1015,8 +1073,8 @@ fn link_strips(shapes: &[Shape], default_color: [u8; 3]) -> Option<LineStrips2D>
             let [px, py] = shape.origin.apply(x, y);
             [px as f32, py as f32]
         };
-        match shape.outline {
-            Outline::Rectangle { width, height } => {
+        match &shape.outline {
+            &Outline::Rectangle { width, height } => {
                 let (hx, hy) = (width / 2.0, height / 2.0);
                 strips.push(vec![
                     point(-hx, -hy),
@@ -1027,7 +1085,7 @@ fn link_strips(shapes: &[Shape], default_color: [u8; 3]) -> Option<LineStrips2D>
                 ]);
                 colors.push(color);
             }
-            Outline::Circle { radius } => {
+            &Outline::Circle { radius } => {
                 strips.push(
                     (0..=CIRCLE_SEGMENTS)
                         .map(|i| {
@@ -1038,6 +1096,11 @@ fn link_strips(shapes: &[Shape], default_color: [u8; 3]) -> Option<LineStrips2D>
                 );
                 strips.push(vec![point(0.0, 0.0), point(radius, 0.0)]);
                 colors.extend([color, color]);
+            }
+            Outline::Polygon { points } => {
+                let closed = points.iter().chain(points.first());
+                strips.push(closed.map(|&[x, y]| point(x, y)).collect());
+                colors.push(color);
             }
         }
     }

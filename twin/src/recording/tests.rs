@@ -62,6 +62,7 @@ fn layout(links: usize, groups: &[(&str, usize)]) -> RecordingLayout {
         links: (0..links)
             .map(|i| (format!("link {i}"), shapes(i)))
             .collect(),
+        bodies: Vec::new(),
         scene: None,
         plots: {
             let mut next = 0;

@@ -13,14 +13,16 @@ mod summary;
 
 pub use layout::SignalLayout;
 pub use observer::{Findings, Observer, ObserverError, StepView};
-pub use summary::{to_json, to_table, write_json, Divergence, Interruption, RunSummary};
+pub use summary::{
+    to_json, to_table, write_json, Divergence, FailureKind, Interruption, RunSummary,
+};
 
 use crate::faults::FaultSet;
 use crate::machines::{self, Machine, MachineError};
 use crate::mechanism::{JointMotion, Mechanism};
-use crate::physics::MechanismState;
+use crate::physics::{BodyShapes, ContactDetector, MechanismState};
 use crate::recording::{LiveViewer, RecordingError};
-use crate::scenario::{LoadedScenario, Scenario, ScenarioError};
+use crate::scenario::{BodyKind, BodySpec, Engine, LoadedScenario, Scenario, ScenarioError};
 use crate::scene::{Bounds, Scene};
 use crate::sensors::Sensor;
 use crate::urdf::{self, UrdfError};
@@ -102,6 +104,8 @@ pub struct Twin {
     faults: FaultSet,
     /// The scenario's `[initial]` joint states: tree joint, position, velocity.
     initial: Vec<(usize, f64, f64)>,
+    /// Crash detection between the links' collision shapes and the scenario's bodies.
+    contacts: ContactDetector,
     /// A viewer to stream the run to, besides the recording file.
     live: Option<LiveViewer>,
     /// Polled every step; see [`Twin::with_stop_flag`].
@@ -133,6 +137,7 @@ impl Twin {
         let mut mechanism = urdf::load_str(&loaded.urdf_text, &loaded.urdf_source)?;
         scenario.plant.apply(&mut mechanism).map_err(binding)?;
         let initial = initial_states(scenario, &mechanism).map_err(binding)?;
+        let contacts = contact_detector(scenario, &mechanism).map_err(binding)?;
         let mut machine = machines::build(&scenario.machine, &mechanism, &scenario.process)
             .map_err(|source| TwinError::Machine {
                 scenario: loaded.source.clone(),
@@ -183,6 +188,7 @@ impl Twin {
             evaluators,
             faults,
             initial,
+            contacts,
             live: None,
             stop: None,
         })
@@ -207,8 +213,22 @@ impl Twin {
         let sensed: Vec<bool> = self.sensors.iter().map(Option::is_some).collect();
         (
             record::plan(&self.layout, &sensed),
-            framed(self.machine.scene(), &self.mechanism),
+            framed(
+                self.machine.scene(),
+                &self.mechanism,
+                &self.loaded.scenario.bodies,
+            ),
         )
+    }
+
+    /// A scenario entry that does not fit the run, found once it runs (a body overlapping a link
+    /// at t = 0): both files are named.
+    fn binding_error(&self, reason: String) -> TwinError {
+        TwinError::Binding {
+            source_name: self.loaded.source.clone(),
+            urdf: self.loaded.urdf_source.clone(),
+            reason,
+        }
     }
 
     /// The plant as the controller sees it: its measured signals and actuators (with limits).
@@ -256,6 +276,11 @@ impl Twin {
             warnings.extend(findings.warnings);
         }
         drop(watching);
+        if self.contacts.is_active() {
+            let (figures, warning) = self.contacts.findings();
+            metrics.extend(figures);
+            warnings.extend(warning);
+        }
         let scenario = &self.loaded.scenario;
         let mut summary = RunSummary {
             scenario: scenario.name.clone(),
@@ -305,7 +330,12 @@ impl Twin {
                 .iter()
                 .map(|l| (l.name.clone(), l.visuals.clone()))
                 .collect(),
-            scene: framed(self.machine.scene(), &self.mechanism),
+            bodies: scenario
+                .bodies
+                .iter()
+                .map(|b| (b.name.clone(), b.outlines()))
+                .collect(),
+            scene: framed(self.machine.scene(), &self.mechanism, &scenario.bodies),
             sensed: self.sensors.iter().map(Option::is_some).collect(),
             start_text,
             live: self.live.clone(),
@@ -334,6 +364,7 @@ impl Twin {
                 time,
                 signal,
                 value,
+                kind: FailureKind::Diverged,
             })
         };
         for (j, joint) in self.mechanism.joints.iter().enumerate() {
@@ -359,9 +390,10 @@ impl Twin {
     }
 }
 
-/// The scene with its frame widened to hold the links at their URDF pose and its drawings, with
-/// a margin, so that nothing drawn touches the view's border.
-fn framed(mut scene: Scene, mechanism: &Mechanism) -> Scene {
+/// The scene with its frame widened to hold the links at their URDF pose, the bodies where the
+/// scenario places them and the drawings, with a margin, so that nothing drawn touches the
+/// view's border.
+fn framed(mut scene: Scene, mechanism: &Mechanism, bodies: &[BodySpec]) -> Scene {
     const MARGIN: f64 = 0.04;
     let poses = mechanism.zero_pose();
     let links = mechanism.links.iter().zip(&poses).flat_map(|(link, pose)| {
@@ -369,11 +401,17 @@ fn framed(mut scene: Scene, mechanism: &Mechanism) -> Scene {
             .iter()
             .flat_map(|shape| shape.extent().map(|[x, y]| pose.apply(x, y)))
     });
+    let bodies = bodies.iter().flat_map(|body| {
+        let pose = body.placement();
+        body.outlines()
+            .into_iter()
+            .flat_map(move |shape| shape.extent().map(|[x, y]| pose.apply(x, y)))
+    });
     let drawings = scene
         .drawings
         .iter()
         .flat_map(|d| d.lines.iter().flatten().copied());
-    if let Some(content) = Bounds::around(links.chain(drawings), MARGIN) {
+    if let Some(content) = Bounds::around(links.chain(bodies).chain(drawings), MARGIN) {
         scene.bounds = scene.bounds.union(&content);
     }
     scene
@@ -464,7 +502,33 @@ fn bind_sensors(
     Ok(sensors)
 }
 
-/// An actuator per actuated tree joint: a force on a prismatic joint, else a torque.
+/// The crash detector of the run: the links' collision shapes, the scenario's bodies and its
+/// allowed pairs. A free body needs the rapier engine (the exact one moves only the mechanism).
+fn contact_detector(scenario: &Scenario, mechanism: &Mechanism) -> Result<ContactDetector, String> {
+    let mut bodies = Vec::with_capacity(scenario.bodies.len());
+    for (i, body) in scenario.bodies.iter().enumerate() {
+        let moves = body.kind == BodyKind::Free;
+        if moves && scenario.solver.engine == Engine::Exact {
+            return Err(format!(
+                "bodies.{i} `{}`: free bodies need `[solver] engine = \"rapier\"` (the exact \
+                 engine moves only the mechanism); or make it `kind = \"static\"`",
+                body.name
+            ));
+        }
+        bodies.push(BodyShapes {
+            name: body.name.clone(),
+            shapes: body.outlines(),
+            moves,
+        });
+    }
+    let allowed: Vec<(&str, &str)> = scenario
+        .allowed_contacts
+        .iter()
+        .map(|pair| (pair.a.as_str(), pair.b.as_str()))
+        .collect();
+    ContactDetector::new(mechanism, &bodies, &allowed).map_err(|e| e.to_string())
+}
+
 /// The scenario's `[initial]` entries as (tree joint, position, velocity); a name the URDF lacks
 /// or a fixed joint is an error naming the entry.
 fn initial_states(
@@ -484,6 +548,7 @@ fn initial_states(
         .collect()
 }
 
+/// An actuator per actuated tree joint: a force on a prismatic joint, else a torque.
 fn joint_actuators(mechanism: &Mechanism, actuated: &[usize]) -> Vec<Actuator> {
     actuated
         .iter()

@@ -2,7 +2,8 @@
 //! user's own probe) sees each step through the same read-only [`StepView`].
 
 use super::layout::SignalLayout;
-use crate::physics::MechanismState;
+use crate::mechanism::Pose2;
+use crate::physics::{Collision, MechanismState};
 use controllers::Event;
 
 /// What an observer may fail with; the run stops and returns it.
@@ -32,6 +33,10 @@ pub struct StepView<'a> {
     pub internals: &'a [f64],
     /// Model checks: the machine's, the loop gaps, the mechanical energy.
     pub diagnostics: &'a [f64],
+    /// Where the scenario's `[[bodies]]` are, in its order.
+    pub bodies: &'a [Pose2],
+    /// The pairs of links or bodies that started to touch at this step (each also an event).
+    pub collisions: &'a [Collision],
     /// Events raised at this step (by the controller, the limits, the twin).
     pub events: &'a [Event],
     /// Whether the controller ran at this step (`measured` is fresh).

@@ -9,7 +9,8 @@
 use super::layout::SignalLayout;
 use super::observer::{Findings, Observer, ObserverError, StepView};
 use super::RunSummary;
-use crate::mechanism::Shape;
+use crate::mechanism::{Pose2, Shape};
+use crate::physics::Collision;
 use crate::recording::{
     LiveViewer, PlotSpec, PlotTab, Recorder, RecordingLayout, SeriesRole, SeriesSpec,
 };
@@ -31,6 +32,10 @@ pub struct RecordingObserver {
     marker_sources: Vec<MarkerValues>,
     values: Vec<f64>,
     markers: Vec<[f64; 2]>,
+    /// The links' poses, then the bodies'.
+    poses: Vec<Pose2>,
+    /// Every crash so far: where, and the pair.
+    collisions: Vec<([f64; 2], String)>,
     last_step: usize,
     last_time: f64,
 }
@@ -52,6 +57,8 @@ pub struct RecordingParts {
     pub recording_id: String,
     pub scenario_toml: String,
     pub links: Vec<(String, Vec<Shape>)>,
+    /// The scenario's bodies: name and shapes in the body's frame.
+    pub bodies: Vec<(String, Vec<Shape>)>,
     pub scene: Scene,
     pub sensed: Vec<bool>,
     pub start_text: String,
@@ -67,6 +74,7 @@ impl RecordingObserver {
                 recording_id: parts.recording_id,
                 scenario_toml: parts.scenario_toml,
                 links: parts.links,
+                bodies: parts.bodies,
                 scene: Some(parts.scene),
                 plots: Vec::new(),
                 live: parts.live,
@@ -77,6 +85,8 @@ impl RecordingObserver {
             marker_sources: Vec::new(),
             values: Vec::new(),
             markers: Vec::new(),
+            poses: Vec::new(),
+            collisions: Vec::new(),
             last_step: 0,
             last_time: 0.0,
         }
@@ -425,6 +435,11 @@ impl Observer for RecordingObserver {
         for event in view.events {
             recorder.event(step_index(view.step), view.time, event.level, &event.text)?;
         }
+        if !view.collisions.is_empty() {
+            let pair = |c: &Collision| (c.point, format!("{}/{}", c.a, c.b));
+            self.collisions.extend(view.collisions.iter().map(pair));
+            recorder.collisions(step_index(view.step), view.time, &self.collisions)?;
+        }
         if view.sampled {
             let movable = view.layout.movable_joints();
             let values = &mut self.values;
@@ -444,10 +459,13 @@ impl Observer for RecordingObserver {
                     source.origin[1] + source.scale * value(source.y),
                 ];
             }
+            self.poses.clear();
+            self.poses.extend_from_slice(&view.state.link_poses);
+            self.poses.extend_from_slice(view.bodies);
             recorder.push(
                 step_index(view.step),
                 view.time,
-                &view.state.link_poses,
+                &self.poses,
                 values,
                 &self.markers,
             )?;

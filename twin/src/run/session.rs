@@ -2,9 +2,10 @@
 
 use super::observer::{Observer, StepView};
 use super::stats::Digest;
-use super::{observer_error, Divergence, Interruption, Twin, TwinError};
+use super::{observer_error, Divergence, FailureKind, Interruption, Twin, TwinError};
 use crate::energy::mechanical_energy;
 use crate::faults::PlantChange;
+use crate::mechanism::Pose2;
 use crate::physics::{Load, MechanismState, Physics, SolverSettings};
 use crate::sensors::Noise;
 use controllers::{Event, EventKind, Measurement};
@@ -37,6 +38,14 @@ struct Buffers {
     plant_changes: Vec<PlantChange>,
 }
 
+impl Buffers {
+    /// Where the `[[bodies]]` are now, in the scenario's order: static ones where the scenario
+    /// places them, free ones where the rapier engine's contacts have moved them.
+    fn bodies(&self) -> &[Pose2] {
+        &self.state.body_poses
+    }
+}
+
 /// A twin being run.
 pub(super) struct Session<'t> {
     twin: &'t mut Twin,
@@ -59,6 +68,10 @@ impl<'t> Session<'t> {
                 dt: scenario.dt,
                 gravity: scenario.gravity,
                 substeps: scenario.substeps,
+                solver: scenario.solver.clone(),
+                contact: scenario.contact.clone(),
+                bodies: scenario.bodies.clone(),
+                allowed_contacts: scenario.allowed_contacts.clone(),
             },
         );
         physics.set_joint_states(&twin.initial);
@@ -93,14 +106,18 @@ impl<'t> Session<'t> {
     pub fn run(mut self, observers: &mut [&mut dyn Observer]) -> Result<Ending, TwinError> {
         let steps = self.twin.loaded.scenario.steps();
         self.physics.read_state(&mut self.values.state);
+        let values = &self.values;
+        let start = (self.twin.contacts).check_start(&values.state.link_poses, values.bodies());
+        start.map_err(|error| self.twin.binding_error(error.to_string()))?;
         let mut step = 0;
         loop {
             let time = step as f64 * self.dt;
             self.apply_faults(time);
             self.sense(time);
-            let mut failure =
-                self.twin
-                    .check_health(step, time, &self.values.state, &self.values.signals);
+            let mut failure = self
+                .twin
+                .check_health(step, time, &self.values.state, &self.values.signals)
+                .or_else(|| self.collide(step, time));
             let interrupted =
                 self.twin
                     .stop_requested()
@@ -114,7 +131,8 @@ impl<'t> Session<'t> {
             self.twin
                 .machine
                 .drive(self.dt, &self.values.limited, &mut self.values.applied);
-            if let Some(failure) = &failure {
+            // A crash has its own event already.
+            if let Some(failure) = failure.as_ref().filter(|f| f.kind == FailureKind::Diverged) {
                 let event = Event::error(EventKind::Divergence, failure.to_string());
                 self.values.events.push(event);
             }
@@ -183,6 +201,36 @@ impl<'t> Session<'t> {
         }
     }
 
+    /// Crash detection on the state at `time`: an event for each pair that starts to touch;
+    /// with `health.stop_on_collision` the first one stops the run.
+    fn collide(&mut self, step: usize, time: f64) -> Option<Divergence> {
+        let values = &mut self.values;
+        let twin = &mut *self.twin;
+        let onsets = twin
+            .contacts
+            .update(time, &values.state.link_poses, values.bodies());
+        let stop = twin.loaded.scenario.health.stop_on_collision;
+        for onset in onsets {
+            let kind = EventKind::Collision {
+                a: onset.a.clone(),
+                b: onset.b.clone(),
+            };
+            values.events.push(if stop {
+                Event::error(kind, onset.describe())
+            } else {
+                Event::warning(kind, onset.describe())
+            });
+        }
+        let first = onsets.first().filter(|_| stop)?;
+        Some(Divergence {
+            step,
+            time,
+            signal: format!("collision {}/{}", first.a, first.b),
+            value: first.depth,
+            kind: FailureKind::Collision,
+        })
+    }
+
     /// Through the sensors to the controller: new commanded efforts, internals and events.
     fn control(&mut self, time: f64) {
         let twin = &mut *self.twin;
@@ -222,6 +270,7 @@ impl<'t> Session<'t> {
                     time,
                     signal: format!("effort/commanded/{}", actuator.joint),
                     value: commanded,
+                    kind: FailureKind::Diverged,
                 });
                 continue;
             }
@@ -267,6 +316,8 @@ impl<'t> Session<'t> {
             saturated: &values.saturated,
             internals: &values.internals,
             diagnostics: &values.diagnostics,
+            bodies: values.bodies(),
+            collisions: self.twin.contacts.onsets(),
             events: &values.events,
             control_update,
             sampled: step.is_multiple_of(self.record_every) || last,

@@ -5,22 +5,45 @@ use crate::output::{OutputError, OutputFile};
 use serde_json::{json, Map, Value};
 use std::fmt::Write as _;
 
-/// Why a run stopped early: the first signal that left its bounds.
+/// Why a run stopped early: the first signal that left its bounds, or the first crash.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Divergence {
     pub step: usize,
     pub time: f64,
+    /// The signal, or for a crash `collision <a>/<b>`.
     pub signal: String,
+    /// The signal's value, or for a crash the depth of the overlap, m.
     pub value: f64,
+    pub kind: FailureKind,
+}
+
+/// What stopped a run early; either way `twin run` exits with 3.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum FailureKind {
+    /// A signal left its bounds: not finite, or a joint speed or loop gap beyond `[health]`.
+    #[default]
+    Diverged,
+    /// Two links or bodies that may not touch did, and `health.stop_on_collision` is set.
+    Collision,
 }
 
 impl std::fmt::Display for Divergence {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        write!(
-            f,
-            "run diverged at step {} (t = {:.6} s): {} = {}",
-            self.step, self.time, self.signal, self.value
-        )
+        match self.kind {
+            FailureKind::Diverged => write!(
+                f,
+                "run diverged at step {} (t = {:.6} s): {} = {}",
+                self.step, self.time, self.signal, self.value
+            ),
+            FailureKind::Collision => write!(
+                f,
+                "run stopped at step {} (t = {:.6} s): {}, {} deep",
+                self.step,
+                self.time,
+                self.signal,
+                crate::physics::length(self.value)
+            ),
+        }
     }
 }
 

@@ -22,6 +22,7 @@ pub const BUILTIN: &[(&str, &str)] = &[
         "arm-milling",
         include_str!("../../scenarios/arm-milling.toml"),
     ),
+    ("arm-crash", include_str!("../../scenarios/arm-crash.toml")),
     (
         "platform-path",
         include_str!("../../scenarios/platform-path.toml"),
@@ -29,6 +30,10 @@ pub const BUILTIN: &[(&str, &str)] = &[
     (
         "platform-path-s",
         include_str!("../../scenarios/platform-path-s.toml"),
+    ),
+    (
+        "platform-obstacle",
+        include_str!("../../scenarios/platform-obstacle.toml"),
     ),
     (
         "feed-axis-micromilling",

@@ -43,6 +43,14 @@ impl Scenario {
         for (i, fault) in self.faults.iter().enumerate() {
             fault.validate(i, self.duration)?;
         }
+        self.solver.validate()?;
+        self.contact.validate()?;
+        for (i, body) in self.bodies.iter().enumerate() {
+            body.validate(i)?;
+            if self.bodies[..i].iter().any(|b| b.name == body.name) {
+                return Err(format!("bodies `{}`: named twice", body.name));
+            }
+        }
         for (i, metric) in self.metrics.iter().enumerate() {
             metric.validate()?;
             if self.metrics[..i].iter().any(|m| m.name == metric.name) {

@@ -8,12 +8,16 @@
 mod builder;
 mod builtin;
 mod checks;
+mod contact;
 mod metrics;
 #[cfg(test)]
 mod tests;
 
 pub use builder::{load, Overrides, ScenarioBuilder, ScenarioValue};
 pub use builtin::BUILTIN;
+pub use contact::{
+    AllowedContact, BodyKind, BodyShape, BodySpec, ContactOptions, Engine, SolverOptions,
+};
 pub use metrics::{MetricKind, MetricSpec};
 
 use crate::faults::FaultSpec;
@@ -99,6 +103,19 @@ pub struct Scenario {
     /// Injected faults (`[[faults]]`), see [`crate::faults`].
     #[serde(default)]
     pub faults: Vec<FaultSpec>,
+    /// The engine that steps the mechanism and its settings (`[solver]`).
+    #[serde(default)]
+    pub solver: SolverOptions,
+    /// How the rapier engine resolves contacts (`[contact]`).
+    #[serde(default)]
+    pub contact: ContactOptions,
+    /// Rigid bodies beside the machine (`[[bodies]]`): a clamp, a wall, a free box.
+    #[serde(default)]
+    pub bodies: Vec<BodySpec>,
+    /// Pairs of links or bodies that touch by design (`[[allowed_contacts]]`); adjacent links
+    /// are allowed without an entry.
+    #[serde(default)]
+    pub allowed_contacts: Vec<AllowedContact>,
 }
 
 /// A joint's state at t = 0, in the joint's own sense (rad or m, rad/s or m/s).
@@ -138,6 +155,8 @@ pub struct HealthLimits {
     pub max_joint_speed: f64,
     /// Largest loop-closure gap, m.
     pub max_loop_gap: f64,
+    /// Stop the run (exit 3) at the first contact of a pair not allowed, naming both.
+    pub stop_on_collision: bool,
 }
 
 impl Default for HealthLimits {
@@ -145,6 +164,7 @@ impl Default for HealthLimits {
         Self {
             max_joint_speed: 1e3,
             max_loop_gap: 1e-2,
+            stop_on_collision: false,
         }
     }
 }

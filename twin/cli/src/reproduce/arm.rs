@@ -13,8 +13,8 @@ use controllers::filters::FirstOrderFilter;
 use controllers::Registry;
 use serde_json::json;
 use std::path::Path;
+use twin::{Engine, ScenarioBuilder};
 use twin::{Observer, ObserverError, RunSummary, SignalLayout, StepView, Twin};
-use twin::{Scenario, ScenarioBuilder};
 
 const SCENARIO: &str = "arm-milling";
 /// The paper's V0 and current tolerance (Figs. 2–3), mm/s and A.
@@ -150,8 +150,8 @@ fn run_one(
 }
 
 /// `arm-milling` at a constant path speed, m/s.
-fn constant(speed: f64) -> Result<ScenarioBuilder, ReproduceError> {
-    Scenario::builtin(SCENARIO)
+fn constant(speed: f64, engine: Option<Engine>) -> Result<ScenarioBuilder, ReproduceError> {
+    super::builtin(SCENARIO, engine)
         .and_then(|s| {
             s.controller("path-speed-constant")
                 .duration(CONSTANT_DURATION)
@@ -167,12 +167,13 @@ fn safe_speed(
     out_dir: &Path,
     registry: &Registry,
     guess: f64,
+    engine: Option<Engine>,
 ) -> Result<(f64, Run, Run), ReproduceError> {
     // Speeds on the grid guess + k·SPEED_STEP, by whole k (no drift from repeated sums).
     let speed = |k: i64| guess + k as f64 * SPEED_STEP;
     let run_at = |k: i64| {
         let label = format!("constant-{:.1}mm_s", speed(k) * MM);
-        run_one(out_dir, registry, label, constant(speed(k))?)
+        run_one(out_dir, registry, label, constant(speed(k), engine)?)
     };
     let within = |run: &Run| run.peak_current().0 <= TOLERANCE && run.summary.failure.is_none();
     let mut k = 0;
@@ -225,16 +226,20 @@ struct Runs {
     next: Run,
 }
 
-pub fn run(out_dir: &Path, registry: &Registry) -> Result<Report, ReproduceError> {
-    let builtin = Scenario::builtin(SCENARIO).map_err(twin::TwinError::from)?;
+pub fn run(
+    out_dir: &Path,
+    registry: &Registry,
+    engine: Option<Engine>,
+) -> Result<Report, ReproduceError> {
+    let builtin = super::builtin(SCENARIO, engine).map_err(twin::TwinError::from)?;
     let adaptive = run_one(out_dir, registry, "adaptive".into(), builtin)?;
     let blind = run_one(
         out_dir,
         registry,
         "constant-v0".into(),
-        constant(V0_MM_S * 1e-3)?,
+        constant(V0_MM_S * 1e-3, engine)?,
     )?;
-    let (safe_speed, safe, next) = safe_speed(out_dir, registry, SAFE_SPEED_GUESS)?;
+    let (safe_speed, safe, next) = safe_speed(out_dir, registry, SAFE_SPEED_GUESS, engine)?;
     let runs = Runs {
         adaptive,
         blind,

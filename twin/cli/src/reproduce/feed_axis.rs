@@ -29,7 +29,6 @@ use super::{Claim, Report, ReproduceError, Verdict};
 use controllers::Registry;
 use std::path::Path;
 use twin::summary;
-use twin::Scenario;
 use twin::{RunSummary, Twin, TwinError};
 
 const TITLE: &str =
@@ -150,12 +149,16 @@ fn condition(cutting: bool) -> &'static str {
     }
 }
 
-pub fn run(out_dir: &Path, registry: &Registry) -> Result<Report, ReproduceError> {
+pub fn run(
+    out_dir: &Path,
+    registry: &Registry,
+    engine: Option<twin::Engine>,
+) -> Result<Report, ReproduceError> {
     let mut runs = Vec::new();
     let mut records = Vec::new();
     for controller in CONTROLLERS {
         for cutting in [false, true] {
-            let loaded = Scenario::builtin(SCENARIO)
+            let loaded = super::builtin(SCENARIO, engine)
                 .and_then(|s| s.controller(controller).set("process.cutting", cutting))
                 .and_then(|b| b.build(registry))
                 .map_err(TwinError::from)?;

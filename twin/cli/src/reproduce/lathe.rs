@@ -150,7 +150,13 @@ fn phase_plane(gains: Gains, out_dir: &Path, name: &str) -> Result<PhasePlane, R
     Ok(plane)
 }
 
-pub(super) fn run(out_dir: &Path, registry: &Registry) -> Result<Report, ReproduceError> {
+/// The runs go through the phase-plane analysis, which builds its scenarios on the exact engine
+/// (`--engine rapier` is refused before this).
+pub(super) fn run(
+    out_dir: &Path,
+    registry: &Registry,
+    _engine: Option<twin::Engine>,
+) -> Result<Report, ReproduceError> {
     let fast = phase_plane(
         Gains::Design {
             time_constants: [0.5, 0.49],

@@ -18,7 +18,6 @@ use super::{Claim, Report, ReproduceError, Verdict};
 use controllers::Registry;
 use std::path::Path;
 use twin::summary;
-use twin::Scenario;
 use twin::{RunSummary, Twin, TwinError};
 
 const SCENARIOS: [&str; 5] = [
@@ -33,10 +32,14 @@ const PAPER_CHATTER: f64 = 808.0;
 /// Tooth-passing frequency at 15,000 rpm with two flutes, Hz.
 const TOOTH_PASSING: f64 = 500.0;
 
-pub fn run(out_dir: &Path, registry: &Registry) -> Result<Report, ReproduceError> {
+pub fn run(
+    out_dir: &Path,
+    registry: &Registry,
+    engine: Option<twin::Engine>,
+) -> Result<Report, ReproduceError> {
     let mut records = Vec::new();
     let mut run = |name: &str| -> Result<RunSummary, ReproduceError> {
-        let loaded = Scenario::builtin(name)
+        let loaded = super::builtin(name, engine)
             .and_then(|b| b.build(registry))
             .map_err(TwinError::from)?;
         let file = format!("{name}.rrd");

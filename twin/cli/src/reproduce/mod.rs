@@ -14,7 +14,7 @@ use controllers::Registry;
 use serde::Serialize;
 use std::fmt::Write as _;
 use std::path::Path;
-use twin::TwinError;
+use twin::{Engine, Scenario, ScenarioBuilder, ScenarioError, TwinError};
 
 /// Whether the twin bears a claim out.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
@@ -48,8 +48,11 @@ pub struct Report {
 pub struct Paper {
     pub name: &'static str,
     pub summary: &'static str,
-    /// Runs the paper's scenarios, recordings into the folder, and compares.
-    pub run: fn(&Path, &Registry) -> Result<Report, ReproduceError>,
+    /// Runs the paper's scenarios (on the engine given, else each scenario's own), recordings
+    /// into the folder, and compares.
+    pub run: fn(&Path, &Registry, Option<Engine>) -> Result<Report, ReproduceError>,
+    /// Whether `--engine` can choose its engine (not when an analysis builds its scenarios).
+    pub any_engine: bool,
 }
 
 /// Every paper, in the order `twin list` shows them.
@@ -58,31 +61,37 @@ pub const PAPERS: &[Paper] = &[
         name: "whitworth",
         summary: "Perrusquía et al. 2022: task-space OSMC for constant-velocity cutting on a Whitworth shaper",
         run: whitworth::run,
+        any_engine: true,
     },
     Paper {
         name: "arm",
         summary: "Ilyukhin et al. 2014: machining robot, path speed corrected from motor currents",
         run: arm::run,
+        any_engine: true,
     },
     Paper {
         name: "lathe",
         summary: "Sudhakara & Landers 2003: parallel turning power loop, its equilibria and region of attraction",
         run: lathe::run,
+        any_engine: false,
     },
     Paper {
         name: "feed-axis",
         summary: "Rubio, Ibeas & Luo: P-PI vs super-twisting SMC on a linear-motor feed axis under micro-milling (Table I)",
         run: feed_axis::run,
+        any_engine: true,
     },
     Paper {
         name: "platform",
         summary: "Kalinski et al. 2013: two-wheeled platform, optimal control at the energy index vs two PIDs",
         run: platform::run,
+        any_engine: true,
     },
     Paper {
         name: "milling",
         summary: "Kaliński & Galewski 2013 §3: slender ball-end milling chatter reduced by spindle-speed programmes",
         run: milling::run,
+        any_engine: true,
     },
 ];
 
@@ -97,13 +106,35 @@ pub enum ReproduceError {
     /// A search over runs (the arm's safe path speed) found no answer.
     #[error("{0}")]
     Search(String),
+    /// `--engine` on a paper whose runs go through an analysis that builds its own scenarios.
+    #[error("twin reproduce {paper} runs the exact engine only (through `twin analyze {paper}`); leave out --engine")]
+    EngineFixed { paper: String },
 }
 
-/// Runs every scenario of `paper`, writing recordings and `report.json` into `out_dir`.
+/// `--engine` as the `--set` it equals (none when not given).
+pub fn engine_override(engine: Option<Engine>) -> Vec<String> {
+    engine
+        .map(|e| format!("solver.engine={}", e.name()))
+        .into_iter()
+        .collect()
+}
+
+/// A built-in scenario on the engine given (its own when none).
+fn builtin(name: &str, engine: Option<Engine>) -> Result<ScenarioBuilder, ScenarioError> {
+    let builder = Scenario::builtin(name)?;
+    match engine {
+        Some(engine) => builder.set("solver.engine", engine.name()),
+        None => Ok(builder),
+    }
+}
+
+/// Runs every scenario of `paper` (on `engine` when given), writing recordings and
+/// `report.json` into `out_dir`.
 pub fn reproduce(
     paper: &str,
     out_dir: &Path,
     registry: &Registry,
+    engine: Option<Engine>,
 ) -> Result<Report, ReproduceError> {
     let entry = PAPERS
         .iter()
@@ -112,11 +143,15 @@ pub fn reproduce(
             name: paper.to_string(),
             known: PAPERS.iter().map(|p| p.name).collect::<Vec<_>>().join(", "),
         })?;
+    if !entry.any_engine && engine.is_some_and(|e| e != Engine::Exact) {
+        let paper = paper.to_string();
+        return Err(ReproduceError::EngineFixed { paper });
+    }
     std::fs::create_dir_all(out_dir).map_err(|e| ReproduceError::Output {
         path: out_dir.display().to_string(),
         reason: e.to_string(),
     })?;
-    let report = (entry.run)(out_dir, registry)?;
+    let report = (entry.run)(out_dir, registry, engine)?;
     write_report(&report, out_dir)?;
     Ok(report)
 }

@@ -18,7 +18,6 @@ use super::{Claim, Report, ReproduceError, Verdict};
 use controllers::Registry;
 use std::path::Path;
 use twin::summary;
-use twin::Scenario;
 use twin::{RunSummary, Twin, TwinError};
 
 const PATHS: [&str; 2] = ["platform-path", "platform-path-s"];
@@ -45,7 +44,11 @@ impl Run {
     }
 }
 
-pub fn run(out_dir: &Path, registry: &Registry) -> Result<Report, ReproduceError> {
+pub fn run(
+    out_dir: &Path,
+    registry: &Registry,
+    engine: Option<twin::Engine>,
+) -> Result<Report, ReproduceError> {
     let mut runs = Vec::new();
     let mut records = Vec::new();
     let cases = PATHS
@@ -53,7 +56,7 @@ pub fn run(out_dir: &Path, registry: &Registry) -> Result<Report, ReproduceError
         .flat_map(|p| CONTROLLERS.map(|c| (*p, c, false)))
         .chain(CONTROLLERS.map(|c| ("platform-path-s", c, true)));
     for (scenario_name, controller, slippery) in cases {
-        let loaded = Scenario::builtin(scenario_name)
+        let loaded = super::builtin(scenario_name, engine)
             .map(|s| s.controller(controller))
             .and_then(|s| match slippery {
                 true => s.set("process.friction", SLIPPERY),

@@ -11,7 +11,7 @@ use super::{Claim, Report, ReproduceError, Verdict};
 use controllers::Registry;
 use serde_json::json;
 use std::path::Path;
-use twin::{load_scenario as load, Overrides};
+use twin::{load_scenario as load, Engine, Overrides};
 use twin::{Observer, ObserverError, RunSummary, StepView, Twin};
 
 /// The controllers compared, the paper's first.
@@ -141,11 +141,13 @@ fn run_one(
     controller: &'static str,
     out_dir: &Path,
     registry: &Registry,
+    engine: Option<Engine>,
 ) -> Result<(Run, String), ReproduceError> {
     let loaded = load(
         scenario,
         &Overrides {
             controller: Some(controller.to_string()),
+            set: super::engine_override(engine),
             ..Default::default()
         },
         registry,
@@ -173,7 +175,11 @@ fn run_one(
 }
 
 /// Runs both scenarios with the four controllers and weighs the paper's claims.
-pub fn run(out_dir: &Path, registry: &Registry) -> Result<Report, ReproduceError> {
+pub fn run(
+    out_dir: &Path,
+    registry: &Registry,
+    engine: Option<Engine>,
+) -> Result<Report, ReproduceError> {
     let mut tracking = Vec::new();
     let mut cutting = Vec::new();
     let mut runs = Vec::new();
@@ -182,7 +188,7 @@ pub fn run(out_dir: &Path, registry: &Registry) -> Result<Report, ReproduceError
             ("whitworth-tracking", &mut tracking),
             ("whitworth-cutting", &mut cutting),
         ] {
-            let (run, file) = run_one(scenario, controller, out_dir, registry)?;
+            let (run, file) = run_one(scenario, controller, out_dir, registry, engine)?;
             runs.push(run.to_json(&file));
             list.push(run);
         }
