@@ -35,6 +35,7 @@
 use super::contacts::{allowed_pairs, weld_groups};
 use super::dynamics::{Frame, HeldLoad};
 use super::exact::{ExactEngine, ExactSettings};
+use super::rapier_model::{axis_frame, insert_links, insert_tree, locked_axes, mass_properties};
 use super::shapes::{from_parry, parry_shape, to_parry};
 use super::{loop_gaps, Load, MechanismState, SolverSettings, NO_DAMPING, NO_STIFFNESS};
 use crate::mechanism::{Inertial, JointMotion, Mechanism, Pose2, Shape};
@@ -580,101 +581,6 @@ impl RapierEngine {
 fn add(bodies: &mut RigidBodySet, handle: RigidBodyHandle, apply: impl FnOnce(&mut RigidBody)) {
     if let Some(body) = bodies.get_mut(handle) {
         apply(body);
-    }
-}
-
-/// One rigid body per link at the URDF's pose: fixed for the ground, dynamic with the URDF's mass
-/// properties for the rest, never asleep (a machine at rest is still being driven).
-fn insert_links(
-    mechanism: &Mechanism,
-    poses: &[Pose2],
-    bodies: &mut RigidBodySet,
-) -> Vec<RigidBodyHandle> {
-    mechanism
-        .links
-        .iter()
-        .zip(poses)
-        .map(|(link, pose)| {
-            let builder = match link.inertial {
-                None => RigidBodyBuilder::fixed(),
-                Some(inertial) => RigidBodyBuilder::dynamic()
-                    .additional_mass_properties(mass_properties(&inertial))
-                    .can_sleep(false),
-            };
-            let mut body = builder.pose(to_parry(pose)).build();
-            // The first forward kinematics needs the centre of mass before any pipeline step.
-            body.recompute_mass_properties_from_colliders(&ColliderSet::new());
-            bodies.insert(body)
-        })
-        .collect()
-}
-
-/// The tree joints as multibody joints, each branch leaving the ground on its own fixed anchor
-/// (its own multibody: small mass matrices), contacts between the joined links off. Returns
-/// each multibody once.
-fn insert_tree(
-    mechanism: &Mechanism,
-    poses: &[Pose2],
-    handles: &[RigidBodyHandle],
-    bodies: &mut RigidBodySet,
-    multibodies: &mut MultibodyJointSet,
-) -> Vec<MultibodyIndex> {
-    for joint in &mechanism.joints {
-        let parent = if joint.parent == 0 {
-            bodies.insert(RigidBodyBuilder::fixed().pose(to_parry(&poses[0])))
-        } else {
-            handles[joint.parent]
-        };
-        let align = axis_frame(joint.motion);
-        let data = GenericJointBuilder::new(locked_axes(joint.motion))
-            .local_frame1(to_parry(&joint.origin.compose(&align)))
-            .local_frame2(to_parry(&align))
-            .contacts_enabled(false)
-            .build();
-        // A validated URDF tree inserts every parent before its children, so this cannot fail;
-        // a joint it refused would stay out of the mechanism's coordinates (`link_ids`).
-        let _ = multibodies.insert(parent, handles[joint.child], data, false);
-    }
-    let mut indices: Vec<MultibodyIndex> = Vec::new();
-    for joint in &mechanism.joints {
-        if let Some(id) = multibodies.rigid_body_link(handles[joint.child]) {
-            if !indices.contains(&id.multibody) {
-                indices.push(id.multibody);
-            }
-        }
-    }
-    for &index in &indices {
-        let Some(mb) = multibodies.get_multibody_mut(index) else {
-            continue;
-        };
-        // A new multibody's root is a free joint until forward kinematics sees the fixed
-        // anchor: only then are its dof count and assembly ids final.
-        mb.forward_kinematics(bodies, true);
-        // Rapier's default multibody damping (0.1 per angular coordinate) is no part of the
-        // plant: the URDF's own damping replaces it (`set_joint_terms`).
-        mb.damping_mut().fill(0.0);
-    }
-    indices
-}
-
-fn mass_properties(inertial: &Inertial) -> MassProperties {
-    let [x, y] = inertial.centre_of_mass;
-    MassProperties::new(Vector::new(x, y), inertial.mass, inertial.izz)
-}
-
-/// The rotation that turns a prismatic axis into the joint frame's x axis (Rapier slides along x).
-fn axis_frame(motion: JointMotion) -> Pose2 {
-    match motion {
-        JointMotion::Prismatic { axis } => Pose2::new(0.0, 0.0, axis[1].atan2(axis[0])),
-        _ => Pose2::IDENTITY,
-    }
-}
-
-fn locked_axes(motion: JointMotion) -> JointAxesMask {
-    match motion {
-        JointMotion::Revolute { .. } => JointAxesMask::LOCKED_REVOLUTE_AXES,
-        JointMotion::Prismatic { .. } => JointAxesMask::LOCKED_PRISMATIC_AXES,
-        JointMotion::Fixed => JointAxesMask::LOCKED_FIXED_AXES,
     }
 }
 

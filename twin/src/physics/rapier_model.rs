@@ -4,7 +4,8 @@
 //! advances the state itself ([`super::Physics`]).
 
 use super::dynamics::{Frame, Kinematics};
-use crate::mechanism::{JointMotion, Mechanism, Pose2};
+use super::shapes::to_parry;
+use crate::mechanism::{Inertial, JointMotion, Mechanism, Pose2};
 use rapier2d_f64::prelude::*;
 
 pub(super) struct RapierModel {
@@ -26,31 +27,7 @@ impl RapierModel {
         let poses = mechanism.zero_pose();
         let handles = insert_links(mechanism, &poses, &mut bodies);
         let mut multibodies = MultibodyJointSet::new();
-        // Each branch leaving the ground gets its own fixed anchor, so each becomes its own
-        // multibody.
-        for joint in &mechanism.joints {
-            let parent = if joint.parent == 0 {
-                bodies.insert(RigidBodyBuilder::fixed().pose(to_rapier(&poses[0])))
-            } else {
-                handles[joint.parent]
-            };
-            let generic = tree_joint(joint.motion, &joint.origin);
-            multibodies
-                .insert(parent, handles[joint.child], generic, false)
-                .expect("a validated URDF tree inserts parent before child");
-        }
-        // A new multibody's root is a free joint until the first forward kinematics sees the fixed
-        // anchor: only then are its dof count and assembly ids final.
-        let roots: Vec<MultibodyIndex> = mechanism
-            .joints
-            .iter()
-            .filter_map(|j| multibodies.rigid_body_link(handles[j.child]))
-            .map(|id| id.multibody)
-            .collect();
-        for index in roots {
-            let mb = multibodies.get_multibody_mut(index).expect("built");
-            mb.forward_kinematics(&bodies, true);
-        }
+        insert_tree(mechanism, &poses, &handles, &mut bodies, &mut multibodies);
         let mut links = vec![None; mechanism.links.len()];
         let mut dofs = Vec::new();
         let mut columns: Vec<(MultibodyIndex, Vec<usize>)> = Vec::new();
@@ -152,8 +129,8 @@ impl RapierModel {
 }
 
 /// One rigid body per link at the URDF's pose: fixed for the ground, dynamic with the URDF's mass
-/// properties for the rest.
-fn insert_links(
+/// properties for the rest, never asleep (a machine at rest is still being driven).
+pub(super) fn insert_links(
     mechanism: &Mechanism,
     poses: &[Pose2],
     bodies: &mut RigidBodySet,
@@ -165,44 +142,84 @@ fn insert_links(
         .map(|(link, pose)| {
             let builder = match link.inertial {
                 None => RigidBodyBuilder::fixed(),
-                Some(inertial) => {
-                    RigidBodyBuilder::dynamic().additional_mass_properties(MassProperties::new(
-                        Vector::new(inertial.centre_of_mass[0], inertial.centre_of_mass[1]),
-                        inertial.mass,
-                        inertial.izz,
-                    ))
-                }
+                Some(inertial) => RigidBodyBuilder::dynamic()
+                    .additional_mass_properties(mass_properties(&inertial))
+                    .can_sleep(false),
             };
-            let mut body = builder.pose(to_rapier(pose)).build();
-            // Rapier's pipeline would compute these on its first step; the twin never runs
-            // it, and the body Jacobians need the centre of mass.
+            let mut body = builder.pose(to_parry(pose)).build();
+            // The first forward kinematics needs the centre of mass before any pipeline step.
             body.recompute_mass_properties_from_colliders(&ColliderSet::new());
             bodies.insert(body)
         })
         .collect()
 }
 
-fn to_rapier(pose: &Pose2) -> Pose {
-    Pose::new(Vector::new(pose.x, pose.y), pose.angle)
+/// The tree joints as multibody joints (for the exact engine's kinematics and the rapier engine
+/// alike), each branch leaving the ground on its own fixed anchor
+/// (its own multibody: small mass matrices), contacts between the joined links off. Returns
+/// each multibody once.
+pub(super) fn insert_tree(
+    mechanism: &Mechanism,
+    poses: &[Pose2],
+    handles: &[RigidBodyHandle],
+    bodies: &mut RigidBodySet,
+    multibodies: &mut MultibodyJointSet,
+) -> Vec<MultibodyIndex> {
+    for joint in &mechanism.joints {
+        let parent = if joint.parent == 0 {
+            bodies.insert(RigidBodyBuilder::fixed().pose(to_parry(&poses[0])))
+        } else {
+            handles[joint.parent]
+        };
+        let align = axis_frame(joint.motion);
+        let data = GenericJointBuilder::new(locked_axes(joint.motion))
+            .local_frame1(to_parry(&joint.origin.compose(&align)))
+            .local_frame2(to_parry(&align))
+            .contacts_enabled(false)
+            .build();
+        // A validated URDF tree inserts every parent before its children, so this cannot fail;
+        // a joint it refused would stay out of the mechanism's coordinates (`link_ids`).
+        let _ = multibodies.insert(parent, handles[joint.child], data, false);
+    }
+    let mut indices: Vec<MultibodyIndex> = Vec::new();
+    for joint in &mechanism.joints {
+        if let Some(id) = multibodies.rigid_body_link(handles[joint.child]) {
+            if !indices.contains(&id.multibody) {
+                indices.push(id.multibody);
+            }
+        }
+    }
+    for &index in &indices {
+        let Some(mb) = multibodies.get_multibody_mut(index) else {
+            continue;
+        };
+        // A new multibody's root is a free joint until forward kinematics sees the fixed
+        // anchor: only then are its dof count and assembly ids final.
+        mb.forward_kinematics(bodies, true);
+        // Rapier's default multibody damping (0.1 per angular coordinate) is no part of the
+        // plant: the URDF's own damping replaces it (`set_joint_terms`).
+        mb.damping_mut().fill(0.0);
+    }
+    indices
+}
+
+pub(super) fn mass_properties(inertial: &Inertial) -> MassProperties {
+    let [x, y] = inertial.centre_of_mass;
+    MassProperties::new(Vector::new(x, y), inertial.mass, inertial.izz)
 }
 
 /// The rotation that turns a prismatic axis into the joint frame's x axis (Rapier slides along x).
-fn axis_frame(motion: JointMotion) -> Pose2 {
+pub(super) fn axis_frame(motion: JointMotion) -> Pose2 {
     match motion {
         JointMotion::Prismatic { axis } => Pose2::new(0.0, 0.0, axis[1].atan2(axis[0])),
         _ => Pose2::IDENTITY,
     }
 }
 
-fn tree_joint(motion: JointMotion, origin: &Pose2) -> GenericJoint {
-    let align = axis_frame(motion);
-    let locked = match motion {
+pub(super) fn locked_axes(motion: JointMotion) -> JointAxesMask {
+    match motion {
         JointMotion::Revolute { .. } => JointAxesMask::LOCKED_REVOLUTE_AXES,
         JointMotion::Prismatic { .. } => JointAxesMask::LOCKED_PRISMATIC_AXES,
         JointMotion::Fixed => JointAxesMask::LOCKED_FIXED_AXES,
-    };
-    GenericJointBuilder::new(locked)
-        .local_frame1(to_rapier(&origin.compose(&align)))
-        .local_frame2(to_rapier(&align))
-        .build()
+    }
 }
