@@ -59,6 +59,28 @@ struct World {
     filter: ContactFilter,
 }
 
+impl World {
+    /// One pipeline step; false when Rapier quarantined a body (its state turned non-finite).
+    fn step(&mut self) -> bool {
+        self.pipeline.step(
+            self.gravity,
+            &self.params,
+            &mut self.islands,
+            &mut self.broad_phase,
+            &mut self.narrow_phase,
+            &mut self.bodies,
+            &mut self.colliders,
+            &mut self.impulse_joints,
+            &mut self.multibodies,
+            &mut self.soft_bodies,
+            &mut self.ccd,
+            &self.filter,
+            &(),
+        );
+        self.pipeline.quarantine().is_empty()
+    }
+}
+
 /// A link's rigid body and, but for the ground, its multibody link.
 #[derive(Debug, Clone, Copy)]
 struct LinkBody {
@@ -317,8 +339,9 @@ impl RapierEngine {
     }
 
     /// Applies one step's joint efforts (per tree joint, URDF sign; N·m or N) and loads, then
-    /// advances by dt in `rapier_substeps` pipeline steps. Efforts and loads act for this step
-    /// only.
+    /// advances by dt in `rapier_substeps` substeps (one pipeline step of that many solver
+    /// iterations, or that many pipeline steps with an in-step load). Efforts and loads act for
+    /// this step only.
     pub fn step(&mut self, joint_efforts: &[f64], loads: &[Load]) {
         if !self.failed.is_empty() {
             return;
@@ -357,37 +380,7 @@ impl RapierEngine {
         self.world.params.num_solver_iterations = iterations;
         for _ in 0..steps {
             self.apply_forces();
-            let World {
-                pipeline,
-                params,
-                gravity,
-                islands,
-                broad_phase,
-                narrow_phase,
-                bodies,
-                colliders,
-                impulse_joints,
-                multibodies,
-                soft_bodies,
-                ccd,
-                filter,
-            } = &mut self.world;
-            pipeline.step(
-                *gravity,
-                params,
-                islands,
-                broad_phase,
-                narrow_phase,
-                bodies,
-                colliders,
-                impulse_joints,
-                multibodies,
-                soft_bodies,
-                ccd,
-                filter,
-                &(),
-            );
-            if !pipeline.quarantine().is_empty() {
+            if !self.world.step() {
                 self.note_quarantine();
                 return;
             }
