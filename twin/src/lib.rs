@@ -11,6 +11,7 @@
 mod energy;
 mod faults;
 mod files;
+mod linear;
 mod machines;
 mod mechanism;
 mod output;
@@ -24,6 +25,7 @@ mod sensors;
 mod spectrum;
 mod urdf;
 
+pub use linear::{Channel, LinearModel, LinearizeError, OperatingPoint};
 pub use output::{same_file, OutputError, OutputFile};
 pub use physics::Collision;
 pub use recording::{LiveViewer, RecordingError};

@@ -6,6 +6,7 @@
 mod evaluate;
 mod layout;
 mod observer;
+mod operating;
 mod record;
 mod session;
 mod stats;
