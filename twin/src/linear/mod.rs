@@ -278,3 +278,6 @@ impl LinearModel {
 }
 
 mod report;
+
+#[cfg(test)]
+mod tests;
