@@ -25,13 +25,13 @@ mod sensors;
 mod spectrum;
 mod urdf;
 
-pub use linear::{Channel, LinearModel, LinearizeError, OperatingPoint};
+pub use linear::{Channel, LinearModel, ModelError, OperatingPoint};
 pub use output::{same_file, OutputError, OutputFile};
 pub use physics::Collision;
 pub use recording::{LiveViewer, RecordingError};
 pub use run::{
-    Divergence, FailureKind, Findings, Interruption, Observer, ObserverError, RunSummary,
-    SignalLayout, StepView, StopFlag, Twin, TwinError,
+    Divergence, FailureKind, Findings, Interruption, LinearizeError, Observer, ObserverError,
+    RunSummary, SignalLayout, StepView, StopFlag, Twin, TwinError,
 };
 pub use scenario::{
     load as load_scenario, AllowedContact, BodyKind, BodyShape, BodySpec, ContactOptions, Engine,

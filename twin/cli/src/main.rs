@@ -411,17 +411,28 @@ fn linearize(args: LinearizeArgs, registry: &Registry) -> Result<ExitCode, Failu
         .overrides(&overrides)?
         .build(registry)?;
     let path = args.out_dir.join("linear.json");
+    let created = !args.out_dir.exists();
     std::fs::create_dir_all(&args.out_dir)
         .map_err(|e| format!("--out-dir {}: {e}", args.out_dir.display()))?;
-    let file = OutputFile::create(&path).map_err(|e| format!("--out-dir: {e}"))?;
-    let model = Twin::new(loaded)?
-        .linearize(args.at)
-        .map_err(|error| match error {
-            twin::LinearizeError::At { .. } => format!("--at {error}"),
-            other => other.to_string(),
-        })?;
-    let text = serde_json::to_string_pretty(&model.to_json()).map_err(|e| e.to_string())?;
-    file.commit(text.as_bytes())?;
+    let written = OutputFile::create(&path)
+        .map_err(|e| Failure::from(format!("--out-dir: {e}")))
+        .and_then(|file| {
+            let model = Twin::new(loaded)?
+                .linearize(args.at)
+                .map_err(|error| match error {
+                    twin::LinearizeError::At { .. } => format!("--at {error}"),
+                    other => other.to_string(),
+                })?;
+            let text = serde_json::to_string_pretty(&model.to_json()).map_err(|e| e.to_string())?;
+            file.commit(text.as_bytes())?;
+            Ok(model)
+        });
+    let model = written.inspect_err(|_| {
+        if created {
+            // Only the folder this command made, and only while empty.
+            let _ = std::fs::remove_dir(&args.out_dir);
+        }
+    })?;
     print!("{}", model.to_table());
     println!("linear model: {}", path.display());
     Ok(ExitCode::SUCCESS)

@@ -17,29 +17,14 @@
 mod expm;
 
 use crate::physics::{MechanismState, ReducedDynamics, ReducedError};
-use crate::run::{Divergence, TwinError};
 use nalgebra::{Complex, DMatrix};
 use thiserror::Error;
 
 use expm::zero_order_hold;
 
-/// Why a linear model could not be made.
-#[derive(Debug, Error)]
-pub enum LinearizeError {
-    /// The operating time is not in the run.
-    #[error("{at} s: {reason}")]
-    At { at: f64, reason: String },
-    #[error(transparent)]
-    Twin(#[from] TwinError),
-    #[error("the run diverged before the operating time {at} s: {failure}")]
-    Diverged { at: f64, failure: Divergence },
-    /// A machine whose actuators are not joints (driven wheels with their own spin states).
-    #[error("{scenario}: machine `{machine}` drives {actuators} through states of its own (not joints), which a linear model of the mechanism lacks")]
-    OwnActuators {
-        scenario: String,
-        machine: String,
-        actuators: String,
-    },
+/// Why the Jacobians make no model.
+#[derive(Debug, Clone, PartialEq, Error)]
+pub enum ModelError {
     #[error("at the operating point: {0}")]
     State(#[from] ReducedError),
     #[error("the linear model is not finite ({what}): the operating point is not one to linearise about")]
@@ -205,16 +190,16 @@ impl LinearModel {
     pub(crate) fn assemble(
         description: Description,
         jacobians: Jacobians,
-    ) -> Result<Self, LinearizeError> {
+    ) -> Result<Self, ModelError> {
         let Jacobians { a, b, c, .. } = &jacobians;
         let finite = |m: &DMatrix<f64>| m.iter().all(|v| v.is_finite());
         for (what, matrix) in [("A", a), ("B", b), ("C", c)] {
             if !finite(matrix) {
-                return Err(LinearizeError::NotFinite { what });
+                return Err(ModelError::NotFinite { what });
             }
         }
         let (ad, bd) = zero_order_hold(a, b, description.control_period)
-            .ok_or(LinearizeError::NotFinite { what: "Ad, Bd" })?;
+            .ok_or(ModelError::NotFinite { what: "Ad, Bd" })?;
         let mut poles: Vec<[f64; 2]> = a
             .clone()
             .complex_eigenvalues()

@@ -3,15 +3,38 @@
 
 use super::observer::{Observer, ObserverError, StepView};
 use super::session::Session;
+use super::{Divergence, TwinError};
 use super::{SignalLayout, Twin};
-use crate::linear::{self, Channel, Description, LinearModel, LinearizeError, Plant};
+use crate::linear::{self, Channel, Description, LinearModel, ModelError, Plant};
 use crate::machines::{self, Machine};
 use crate::mechanism::JointMotion;
 use crate::physics::{Load, MechanismState, ReducedDynamics};
 use controllers::{EffortKind, Unit};
+use thiserror::Error;
 
 /// A machine signal counts as the same value to this share (of max(|value|, 1)).
 const SAME_VALUE: f64 = 1e-9;
+
+/// Why a scenario could not be linearised.
+#[derive(Debug, Error)]
+pub enum LinearizeError {
+    /// The operating time is not in the run.
+    #[error("{at} s: {reason}")]
+    At { at: f64, reason: String },
+    #[error(transparent)]
+    Twin(#[from] TwinError),
+    #[error("the run diverged before the operating time {at} s: {failure}")]
+    Diverged { at: f64, failure: Divergence },
+    /// A machine whose actuators are not joints (driven wheels with their own spin states).
+    #[error("{scenario}: machine `{machine}` drives {actuators} through states of its own (not joints), which a linear model of the mechanism lacks")]
+    OwnActuators {
+        scenario: String,
+        machine: String,
+        actuators: String,
+    },
+    #[error(transparent)]
+    Model(#[from] ModelError),
+}
 
 /// The last step a run showed: the operating point.
 #[derive(Default)]
@@ -112,7 +135,30 @@ impl Twin {
             joints: self.mechanism.joints.len(),
             outputs: &mut outputs,
         };
-        let jacobians = linear::differentiate(&mut plant, &x0, &point.applied)?;
+        let jacobians =
+            linear::differentiate(&mut plant, &x0, &point.applied).map_err(ModelError::from)?;
+        let (states, inputs, outputs) = self.channels(&coordinates, &kept);
+        let description = Description {
+            scenario: scenario.name.clone(),
+            states,
+            inputs,
+            outputs,
+            outputs_left_out,
+            control_period: scenario.control_period(),
+            time: point.time,
+            x0,
+            u0: point.applied.clone(),
+        };
+        Ok(LinearModel::assemble(description, jacobians)?)
+    }
+
+    /// The names and SI units of the states (positions, then velocities of the independent
+    /// `coordinates`), the inputs (the actuators) and the `kept` outputs.
+    fn channels(
+        &self,
+        coordinates: &[usize],
+        kept: &[usize],
+    ) -> (Vec<Channel>, Vec<Channel>, Vec<Channel>) {
         let joint_channel = |j: usize, rate: bool| {
             let joint = &self.mechanism.joints[j];
             let slide = matches!(joint.motion, JointMotion::Prismatic { .. });
@@ -129,8 +175,7 @@ impl Twin {
         };
         let states = [false, true]
             .into_iter()
-            .flat_map(|rate| coordinates.iter().map(move |&j| (j, rate)))
-            .map(|(j, rate)| joint_channel(j, rate))
+            .flat_map(|rate| coordinates.iter().map(move |&j| joint_channel(j, rate)))
             .collect();
         let inputs = self.plant.actuators.iter().map(|a| Channel {
             name: a.joint.clone(),
@@ -139,22 +184,12 @@ impl Twin {
                 EffortKind::Force => "N",
             },
         });
+        let layout = &self.layout;
         let outputs = kept.iter().map(|&i| Channel {
             name: layout.signals[i].clone(),
             unit: si_unit(layout.specs.signals[i].unit),
         });
-        let description = Description {
-            scenario: scenario.name.clone(),
-            states,
-            inputs: inputs.collect(),
-            outputs: outputs.collect(),
-            outputs_left_out,
-            control_period: scenario.control_period(),
-            time: point.time,
-            x0,
-            u0: point.applied.clone(),
-        };
-        LinearModel::assemble(description, jacobians)
+        (states, inputs.collect(), outputs.collect())
     }
 
     /// The plant signals that are functions of the mechanism's state (indices into the layout's
