@@ -11,6 +11,7 @@
 mod energy;
 mod faults;
 mod files;
+mod linear;
 mod machines;
 mod mechanism;
 mod output;
@@ -24,12 +25,13 @@ mod sensors;
 mod spectrum;
 mod urdf;
 
+pub use linear::{Channel, LinearModel, ModelError, OperatingPoint};
 pub use output::{same_file, OutputError, OutputFile};
 pub use physics::Collision;
 pub use recording::{LiveViewer, RecordingError};
 pub use run::{
-    Divergence, FailureKind, Findings, Interruption, Observer, ObserverError, RunSummary,
-    SignalLayout, StepView, StopFlag, Twin, TwinError,
+    Divergence, FailureKind, Findings, Interruption, LinearizeError, Observer, ObserverError,
+    RunSummary, SignalLayout, StepView, StopFlag, Twin, TwinError,
 };
 pub use scenario::{
     load as load_scenario, AllowedContact, BodyKind, BodyShape, BodySpec, ContactOptions, Engine,

@@ -43,6 +43,9 @@ enum Command {
     Analyze(analysis::AnalyzeArgs),
     /// Turn what a killed run left (X.rrd.<random>.part) into a complete recording.
     Salvage(SalvageArgs),
+    /// Linearise a scenario's plant at an operating point: A, B, C, D, their zero-order hold at
+    /// the control period and the poles, into OUT_DIR/linear.json.
+    Linearize(LinearizeArgs),
     /// Run a study: a scenario over grid and random axes, in parallel, scored against specs
     /// (`twin sweep merge` joins shard folders).
     Sweep(SweepArgs),
@@ -172,6 +175,26 @@ struct RunArgs {
 }
 
 #[derive(clap::Args)]
+struct LinearizeArgs {
+    /// A built-in scenario name or a scenario .toml file.
+    scenario: String,
+    /// The operating time, s: the scenario runs with its controller to it, then the efforts are
+    /// held there (0: the initial state).
+    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
+    at: f64,
+    /// Override a scenario value (as `twin run --set`).
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    set: Vec<String>,
+    /// The engine that runs to the operating time (as `twin run --engine`); the linear model is
+    /// always the exact engine's equations of motion.
+    #[arg(long, value_name = "exact|rapier", value_parser = parse_engine)]
+    engine: Option<Engine>,
+    /// Folder for linear.json (created if missing).
+    #[arg(long, required = true)]
+    out_dir: PathBuf,
+}
+
+#[derive(clap::Args)]
 struct BenchArgs {
     /// Built-in scenario names or scenario .toml files; none: every built-in scenario.
     scenarios: Vec<String>,
@@ -231,6 +254,7 @@ fn main() -> ExitCode {
         Command::Reproduce(args) => reproduce(args, &registry),
         Command::Salvage(args) => salvage(args),
         Command::Sweep(args) => sweep(args, &registry),
+        Command::Linearize(args) => linearize(args, &registry),
         Command::Analyze(args) => analysis::run(&args, &registry)
             .map(|summary| {
                 print!("{summary}");
@@ -374,6 +398,44 @@ fn run(args: RunArgs, registry: &Registry) -> Result<ExitCode, Failure> {
         }
         (None, None) => ExitCode::SUCCESS,
     })
+}
+
+/// `twin linearize`: the linear model into OUT_DIR/linear.json and its table on stdout. The
+/// folder is made and its file opened before the run, so an unwritable one fails first.
+fn linearize(args: LinearizeArgs, registry: &Registry) -> Result<ExitCode, Failure> {
+    let overrides = Overrides {
+        set: [reproduce::engine_override(args.engine), args.set].concat(),
+        ..Overrides::default()
+    };
+    let loaded = Scenario::open(&args.scenario)?
+        .overrides(&overrides)?
+        .build(registry)?;
+    let path = args.out_dir.join("linear.json");
+    let created = !args.out_dir.exists();
+    std::fs::create_dir_all(&args.out_dir)
+        .map_err(|e| format!("--out-dir {}: {e}", args.out_dir.display()))?;
+    let written = OutputFile::create(&path)
+        .map_err(|e| Failure::from(format!("--out-dir: {e}")))
+        .and_then(|file| {
+            let model = Twin::new(loaded)?
+                .linearize(args.at)
+                .map_err(|error| match error {
+                    twin::LinearizeError::At { .. } => format!("--at {error}"),
+                    other => other.to_string(),
+                })?;
+            let text = serde_json::to_string_pretty(&model.to_json()).map_err(|e| e.to_string())?;
+            file.commit(text.as_bytes())?;
+            Ok(model)
+        });
+    let model = written.inspect_err(|_| {
+        if created {
+            // Only the folder this command made, and only while empty.
+            let _ = std::fs::remove_dir(&args.out_dir);
+        }
+    })?;
+    print!("{}", model.to_table());
+    println!("linear model: {}", path.display());
+    Ok(ExitCode::SUCCESS)
 }
 
 /// SIGINT and SIGTERM ask the run to stop (it finishes its files); a second one ends the

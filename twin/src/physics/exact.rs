@@ -38,7 +38,7 @@ pub(super) struct ExactEngine {
     settings: ExactSettings,
     /// Generalized coordinates and velocities (Rapier's signs).
     pub(super) q: Vec<f64>,
-    v: Vec<f64>,
+    pub(super) v: Vec<f64>,
     /// Poses and Jacobians at `q`: the end-of-step state.
     pub(super) kin: Kinematics,
     stage: Stage,

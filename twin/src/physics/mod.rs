@@ -15,6 +15,7 @@ mod contacts;
 mod dense;
 mod dynamics;
 mod exact;
+mod linearize;
 mod rapier_engine;
 mod rapier_model;
 mod shapes;
@@ -25,6 +26,7 @@ use exact::{ExactEngine, ExactSettings};
 use rapier_engine::RapierEngine;
 
 pub use contacts::{length, BodyShapes, Collision, ContactDetector};
+pub use linearize::{ReducedDynamics, ReducedError};
 
 /// Joint coordinates and link motion after a step, in the URDF's conventions.
 #[derive(Debug, Clone, Default, PartialEq)]

@@ -6,6 +6,7 @@
 mod evaluate;
 mod layout;
 mod observer;
+mod operating;
 mod record;
 mod session;
 mod stats;
@@ -13,6 +14,7 @@ mod summary;
 
 pub use layout::SignalLayout;
 pub use observer::{Findings, Observer, ObserverError, StepView};
+pub use operating::LinearizeError;
 pub use summary::{
     to_json, to_table, write_json, Divergence, FailureKind, Interruption, RunSummary,
 };
