@@ -237,6 +237,22 @@ pub(super) struct HeldLoad {
     pub start_point: [f64; 2],
 }
 
+impl HeldLoad {
+    /// A load held over a step from its start: its point in `frame` (the link's), and the
+    /// point's velocity then.
+    pub fn new(load: &super::Load, frame: &Frame, start_velocity: [f64; 2]) -> Self {
+        Self {
+            link: load.link,
+            force: load.force,
+            local_point: frame.local(load.point),
+            damping: load.damping,
+            start_velocity,
+            stiffness: load.stiffness,
+            start_point: load.point,
+        }
+    }
+}
+
 /// What acts on the mechanism over a step: generalized joint efforts, process loads, gravity.
 #[derive(Debug, Clone, Copy)]
 pub(super) struct Inputs<'a> {

@@ -127,15 +127,7 @@ impl ExactEngine {
         self.loads.clear();
         self.loads.extend(loads.iter().map(|load| {
             let [vx, vy, _] = self.kin.point_velocity(load.link, load.point, &self.v);
-            HeldLoad {
-                link: load.link,
-                force: load.force,
-                local_point: self.kin.frames[load.link].local(load.point),
-                damping: load.damping,
-                start_velocity: [vx, vy],
-                stiffness: load.stiffness,
-                start_point: load.point,
-            }
+            HeldLoad::new(load, &self.kin.frames[load.link], [vx, vy])
         }));
         let h = self.settings.dt / self.settings.substeps as f64;
         for _ in 0..self.settings.substeps {

@@ -94,15 +94,7 @@ impl ReducedDynamics {
             .iter()
             .map(|load| {
                 let [vx, vy, _] = engine.kin.point_velocity(load.link, load.point, &engine.v);
-                HeldLoad {
-                    link: load.link,
-                    force: load.force,
-                    local_point: engine.kin.frames[load.link].local(load.point),
-                    damping: load.damping,
-                    start_velocity: [vx, vy],
-                    stiffness: load.stiffness,
-                    start_point: load.point,
-                }
+                HeldLoad::new(load, &engine.kin.frames[load.link], [vx, vy])
             })
             .collect();
         Self {

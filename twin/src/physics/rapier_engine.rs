@@ -354,15 +354,8 @@ impl RapierEngine {
         self.loads.clear();
         for load in loads {
             let (frame, velocity) = self.link_motion(load.link, load.point);
-            self.loads.push(HeldLoad {
-                link: load.link,
-                force: load.force,
-                local_point: Frame::of(&frame).local(load.point),
-                damping: load.damping,
-                start_velocity: velocity,
-                stiffness: load.stiffness,
-                start_point: load.point,
-            });
+            let held = HeldLoad::new(load, &Frame::of(&frame), velocity);
+            self.loads.push(held);
         }
         // Rapier's solver iterations are its substeps: one pipeline step of `substeps` of them
         // is the same integration as `substeps` pipeline steps of one (bit for bit, measured)
