@@ -24,7 +24,7 @@ impl Complex {
     pub fn conj(self) -> Self {
         Self::new(self.re, -self.im)
     }
-    pub fn mul(self, o: Self) -> Self {
+    pub fn times(self, o: Self) -> Self {
         Self::new(
             self.re * o.re - self.im * o.im,
             self.re * o.im + self.im * o.re,
@@ -33,10 +33,10 @@ impl Complex {
     pub fn scale(self, k: f64) -> Self {
         Self::new(self.re * k, self.im * k)
     }
-    pub fn div(self, o: Self) -> Self {
-        self.mul(o.conj()).scale(1.0 / o.norm_sqr())
+    pub fn over(self, o: Self) -> Self {
+        self.times(o.conj()).scale(1.0 / o.norm_sqr())
     }
-    pub fn add(self, o: Self) -> Self {
+    pub fn plus(self, o: Self) -> Self {
         Self::new(self.re + o.re, self.im + o.im)
     }
     pub fn arg(self) -> f64 {
@@ -112,7 +112,7 @@ pub fn h1_estimate(
             let (xb, yb) = (Complex::new(xr[b], xi[b]), Complex::new(yr[b], yi[b]));
             gxx[b] += xb.norm_sqr();
             gyy[b] += yb.norm_sqr();
-            gxy[b] = gxy[b].add(xb.conj().mul(yb));
+            gxy[b] = gxy[b].plus(xb.conj().times(yb));
         }
     }
     let bin_width = 1.0 / (n as f64 * period);
@@ -124,7 +124,7 @@ pub fn h1_estimate(
                 let hold = zero_order_hold(f, period);
                 FrfLine {
                     frequency_hz: f,
-                    response: gxy[b].scale(1.0 / gxx[b]).div(hold),
+                    response: gxy[b].scale(1.0 / gxx[b]).over(hold),
                     coherence: if gyy[b] > 0.0 {
                         (gxy[b].norm_sqr() / (gxx[b] * gyy[b])).min(1.0)
                     } else {
@@ -217,8 +217,8 @@ mod tests {
         for line in h1_estimate(&x, &y, period, segments, [0.0, 500.0]) {
             let w = TAU * line.frequency_hz * period;
             let exact = Complex::new(1.0 + 0.5 * w.cos(), -0.5 * w.sin())
-                .div(zero_order_hold(line.frequency_hz, period));
-            let error = line.response.add(exact.scale(-1.0)).abs() / exact.abs();
+                .over(zero_order_hold(line.frequency_hz, period));
+            let error = line.response.plus(exact.scale(-1.0)).abs() / exact.abs();
             assert!(error < 0.02, "{} Hz: {error}", line.frequency_hz);
             assert!(
                 line.coherence > 0.99,

@@ -67,7 +67,7 @@ pub fn fit_mode(frf: &[FrfLine]) -> Result<ModalFit, String> {
     let zeta = a1 / (2.0 * wn);
     let wd = wn * (1.0 - zeta * zeta).sqrt();
     let pole = Complex::new(-zeta * wn, wd);
-    let mass = 1.0 / Complex::new(b0, 0.0).add(pole.scale(b1)).abs();
+    let mass = 1.0 / Complex::new(b0, 0.0).plus(pole.scale(b1)).abs();
     Ok(ModalFit {
         natural_frequency_hz: wn / TAU,
         damping_ratio: zeta,
@@ -88,7 +88,7 @@ fn solve_levy(lines: &[FrfLine], scale_w: f64, scale_h: f64) -> Result<[f64; 4],
         let h = line.response.scale(1.0 / scale_h);
         let s = Complex::new(0.0, w);
         // Unknowns a₀, a₁, b₀, b₁: columns H, H·s, −1, −s; right side −H·s².
-        let cols = [h, h.mul(s), Complex::new(-1.0, 0.0), s.scale(-1.0)];
+        let cols = [h, h.times(s), Complex::new(-1.0, 0.0), s.scale(-1.0)];
         let rhs = h.scale(w * w);
         for part in [|c: Complex| c.re, |c: Complex| c.im] {
             let row = cols.map(part);
@@ -107,14 +107,15 @@ fn solve_levy(lines: &[FrfLine], scale_w: f64, scale_h: f64) -> Result<[f64; 4],
 fn gauss(mut m: [[f64; 5]; 4]) -> Option<[f64; 4]> {
     for c in 0..4 {
         let p = (c..4).max_by(|&a, &b| m[a][c].abs().total_cmp(&m[b][c].abs()))?;
-        if !(m[p][c].abs() > 1e-300) {
+        if m[p][c].abs() <= 1e-300 || m[p][c].is_nan() {
             return None;
         }
         m.swap(c, p);
-        for r in c + 1..4 {
-            let f = m[r][c] / m[c][c];
-            for k in c..5 {
-                m[r][k] -= f * m[c][k];
+        let pivot = m[c];
+        for row in m.iter_mut().skip(c + 1) {
+            let f = row[c] / pivot[c];
+            for (value, p) in row.iter_mut().zip(pivot).skip(c) {
+                *value -= f * p;
             }
         }
     }
@@ -134,7 +135,7 @@ mod tests {
     /// returns them.
     #[test]
     fn recovers_an_exact_single_mode() {
-        let (m, k, zeta) = (0.056, 1.3669e6, 0.02);
+        let (m, k, zeta): (f64, f64, f64) = (0.056, 1.3669e6, 0.02);
         let c = 2.0 * zeta * (k * m).sqrt();
         let frf: Vec<FrfLine> = (0..2000)
             .map(|i| {
@@ -142,7 +143,7 @@ mod tests {
                 let w = TAU * f;
                 FrfLine {
                     frequency_hz: f,
-                    response: Complex::new(1.0, 0.0).div(Complex::new(k - m * w * w, c * w)),
+                    response: Complex::new(1.0, 0.0).over(Complex::new(k - m * w * w, c * w)),
                     coherence: 1.0,
                 }
             })
