@@ -413,23 +413,7 @@ impl LobeAnalysis {
                 lowest.1.chatter_frequency_hz
             );
         }
-        if let Some((fits, _)) = &self.from_frf {
-            for (axis, fit) in ["x", "y"].iter().zip(fits) {
-                let _ = writeln!(
-                    out,
-                    "{axis} mode fitted to its FRF ({} lines, {:.1}–{:.1} Hz): mass {:.6} kg, \
-                     stiffness {:.6e} N/m, damping {:.4} N·s/m",
-                    fit.lines, fit.band[0], fit.band[1], fit.mass, fit.stiffness, fit.damping
-                );
-            }
-            let (worst, speed) = self.frf_deviation().unwrap_or((f64::NAN, f64::NAN));
-            let _ = writeln!(
-                out,
-                "lobes from the FRFs against the scenario's tool: largest difference in limiting \
-                 depth {:.2} % (at {speed:.0} rpm)",
-                100.0 * worst
-            );
-        }
+        self.frf_summary(&mut out);
         let [speed, depth] = self.operating_point;
         let _ = writeln!(
             out,
@@ -469,6 +453,27 @@ impl LobeAnalysis {
             100.0 * agree as f64 / judged.max(1) as f64
         );
         out
+    }
+
+    /// With FRFs: the fitted modes and how far their lobes are from the scenario tool's.
+    fn frf_summary(&self, out: &mut String) {
+        if let Some((fits, _)) = &self.from_frf {
+            for (axis, fit) in ["x", "y"].iter().zip(fits) {
+                let _ = writeln!(
+                    out,
+                    "{axis} mode fitted to its FRF ({} lines, {:.1}–{:.1} Hz): mass {:.6} kg, \
+                     stiffness {:.6e} N/m, damping {:.4} N·s/m",
+                    fit.lines, fit.band[0], fit.band[1], fit.mass, fit.stiffness, fit.damping
+                );
+            }
+            let (worst, speed) = self.frf_deviation().unwrap_or((f64::NAN, f64::NAN));
+            let _ = writeln!(
+                out,
+                "lobes from the FRFs against the scenario's tool: largest difference in limiting \
+                 depth {:.2} % (at {speed:.0} rpm)",
+                100.0 * worst
+            );
+        }
     }
 
     /// With FRFs: the largest relative difference between their lobes' limiting depth and the
