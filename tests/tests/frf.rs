@@ -99,7 +99,7 @@ fn lobes(frf: Option<[PathBuf; 2]>) -> twin_cli::analysis::milling::LobeAnalysis
         &LobeRequest {
             scenario: twin::Scenario::builtin(SCENARIO).unwrap(),
             speeds: [rpm(10_000.0), rpm(25_000.0)],
-            speed_count: 61,
+            speed_count: 21,
             max_depth: 3e-3,
             check: [0, 0],
             check_duration: 0.4,
