@@ -261,6 +261,8 @@ fn analyze_command_names_bad_requests() {
         max_depth: 3e-3,
         check: vec![12, 8],
         check_duration: 0.6,
+        frf_x: None,
+        frf_y: None,
     };
     let registry = controllers::Registry::builtin();
     let summary = analyze_command(&args, &registry).unwrap();

@@ -113,6 +113,7 @@ fn the_lobes_agree_with_the_twins_own_runs() {
             max_depth: 3e-3,
             check: [4, 3],
             check_duration: 0.4,
+            frf: None,
         },
         &Registry::builtin(),
     )

@@ -3,5 +3,6 @@
 //! `twin` binary (`main.rs`) is their command line.
 
 pub mod analysis;
+pub mod frf;
 pub mod reproduce;
 pub mod study;

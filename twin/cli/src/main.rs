@@ -8,7 +8,7 @@ use twin::{
     same_file, summary, Engine, LiveViewer, OutputFile, Overrides, Scenario, StopFlag, Twin,
     BUILTIN_SCENARIOS,
 };
-use twin_cli::{analysis, reproduce, study};
+use twin_cli::{analysis, frf, reproduce, study};
 
 /// Exit codes, as documented in `--help` and the README.
 const EXIT_ERROR: u8 = 1;
@@ -41,6 +41,8 @@ enum Command {
     Reproduce(ReproduceArgs),
     /// Analyse a machine's reduced model (the lathe's phase plane): CSV files and a 2D .rrd.
     Analyze(analysis::AnalyzeArgs),
+    /// Measure a frequency response (a tap test or shaker test on the twin): frf.csv and frf.rrd.
+    Frf(frf::FrfArgs),
     /// Turn what a killed run left (X.rrd.<random>.part) into a complete recording.
     Salvage(SalvageArgs),
     /// Linearise a scenario's plant at an operating point: A, B, C, D, their zero-order hold at
@@ -261,6 +263,18 @@ fn main() -> ExitCode {
                 ExitCode::SUCCESS
             })
             .map_err(Failure::from),
+        Command::Frf(args) => frf::run(&args, &registry)
+            .map(|summary| {
+                print!("{summary}");
+                ExitCode::SUCCESS
+            })
+            .map_err(|error| Failure {
+                code: match error {
+                    frf::FrfError::Diverged(_) => EXIT_DIVERGED,
+                    _ => EXIT_ERROR,
+                },
+                message: error.to_string(),
+            }),
     };
     outcome.unwrap_or_else(|failure| {
         eprintln!("error: {}", failure.message);

@@ -424,3 +424,101 @@ fn arm_crash_reports_the_pair_and_stops_with_exit_3_under_the_flag() {
     // The recording is complete up to the crash.
     assert!(std::fs::metadata(dir.join("stop.rrd")).unwrap().len() > 0);
 }
+
+#[test]
+fn frf_writes_the_tap_test_and_refuses_bad_input() {
+    let dir = scratch("frf");
+    let tap = [
+        "frf",
+        "milling-constant-15000",
+        "--input",
+        "tool_x",
+        "--output",
+        "tool_x.position",
+        "--set",
+        "process.cutting=false",
+        "--averages",
+        "2",
+        "--out-dir",
+        "tap",
+    ];
+    let output = twin(&tap, &dir);
+    let stdout = String::from_utf8_lossy(&output.stdout);
+    assert!(
+        output.status.success(),
+        "{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    assert!(stdout.contains("f_n 786.4"), "{stdout}");
+    let csv = std::fs::read_to_string(dir.join("tap/frf.csv")).unwrap();
+    assert!(csv.starts_with("frequency_hz,magnitude,phase_deg,coherence,real,imag\n"));
+    assert_eq!(csv.lines().count(), 1 + 2049);
+    assert!(std::fs::metadata(dir.join("tap/frf.rrd")).unwrap().len() > 0);
+
+    let unknown = twin(
+        &[
+            "frf",
+            "milling-z04",
+            "--input",
+            "tool_x",
+            "--output",
+            "tool_x.position",
+            "--excitation",
+            "hammer",
+        ],
+        &dir,
+    );
+    assert_eq!(unknown.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&unknown.stderr).contains("hammer"));
+    fails_naming(
+        &[
+            "frf",
+            "milling-z04",
+            "--input",
+            "spindle",
+            "--output",
+            "spindle.velocity",
+            "--amplitude",
+            "13",
+        ],
+        &["--amplitude", "limit 12", "spindle"],
+        "frf-limit",
+    );
+    fails_naming(
+        &[
+            "frf",
+            "milling-z04",
+            "--input",
+            "tool_x",
+            "--output",
+            "tool_x.position",
+            "--band",
+            "0",
+            "6000",
+        ],
+        &["--band", "Nyquist"],
+        "frf-band",
+    );
+    let diverged = twin(
+        &[
+            "frf",
+            "milling-constant-15000",
+            "--input",
+            "tool_x",
+            "--output",
+            "tool_x.position",
+            "--set",
+            "health.max_joint_speed=0.05",
+            "--set",
+            "initial.spindle.velocity=0",
+            "--set",
+            "controller.params.speed=1e-3",
+            "--out-dir",
+            "diverged",
+        ],
+        &dir,
+    );
+    assert_eq!(diverged.status.code(), Some(3));
+    assert!(String::from_utf8_lossy(&diverged.stderr).contains("tool_x.velocity"));
+    assert!(!dir.join("diverged").exists());
+}

@@ -112,6 +112,15 @@ pub struct Twin {
     live: Option<LiveViewer>,
     /// Polled every step; see [`Twin::with_stop_flag`].
     stop: Option<StopFlag>,
+    /// An effort from outside the machine; see [`Twin::with_joint_effort`].
+    excitation: Option<Excitation>,
+}
+
+/// An effort from outside the machine on one joint (a shaker, an impact hammer): tree joint and
+/// the effort over each physics step.
+struct Excitation {
+    joint: usize,
+    efforts: Vec<f64>,
 }
 
 impl Twin {
@@ -193,6 +202,7 @@ impl Twin {
             contacts,
             live: None,
             stop: None,
+            excitation: None,
         })
     }
 
@@ -207,6 +217,38 @@ impl Twin {
     pub fn with_stop_flag(mut self, flag: StopFlag) -> Self {
         self.stop = Some(flag);
         self
+    }
+
+    /// Adds an effort from outside the machine to `joint` (a shaker or an impact hammer on it):
+    /// `efforts[k]` acts over step k, from `k·dt` to `(k+1)·dt` (N on a prismatic joint, N·m on a
+    /// revolute one), on top of what its drive applies; none after the last. The controller does
+    /// not see it. An unknown or fixed joint or a non-finite effort is refused by name.
+    pub fn with_joint_effort(mut self, joint: &str, efforts: Vec<f64>) -> Result<Self, TwinError> {
+        let index = self
+            .mechanism
+            .joint_index(joint)
+            .filter(|&j| self.mechanism.joints[j].motion.is_movable())
+            .ok_or_else(|| {
+                let known: Vec<&str> = (self.mechanism.joints.iter())
+                    .filter(|j| j.motion.is_movable())
+                    .map(|j| j.name.as_str())
+                    .collect();
+                self.binding_error(format!(
+                    "joint effort: the URDF has no moving joint `{joint}` (known: {})",
+                    known.join(", ")
+                ))
+            })?;
+        if let Some(k) = efforts.iter().position(|e| !e.is_finite()) {
+            return Err(self.binding_error(format!(
+                "joint effort on `{joint}`: step {k}'s effort is {}; give finite efforts",
+                efforts[k]
+            )));
+        }
+        self.excitation = Some(Excitation {
+            joint: index,
+            efforts,
+        });
+        Ok(self)
     }
 
     /// What a recording of this run shows: its plots (each one unit; references and commands

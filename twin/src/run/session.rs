@@ -150,7 +150,7 @@ impl<'t> Session<'t> {
                     digest: self.digest.0,
                 });
             }
-            self.advance(time);
+            self.advance(step, time);
             step += 1;
         }
     }
@@ -333,12 +333,16 @@ impl<'t> Session<'t> {
         Ok(())
     }
 
-    /// The efforts and process loads over one physics step.
-    fn advance(&mut self, time: f64) {
+    /// The efforts and process loads over one physics step (`step`, from `time`).
+    fn advance(&mut self, step: usize, time: f64) {
         let values = &mut self.values;
         values.joint_efforts.fill(0.0);
         for (a, &j) in self.twin.actuated.iter().enumerate() {
             values.joint_efforts[j] = values.applied[a];
+        }
+        if let Some(excitation) = &self.twin.excitation {
+            values.joint_efforts[excitation.joint] +=
+                excitation.efforts.get(step).copied().unwrap_or(0.0);
         }
         values.loads.clear();
         self.twin

@@ -15,6 +15,8 @@
 //! run (see [`chatters`]). Points within 5 % of the lobes' depth are left out of the agreement.
 
 use super::{create_dir, write_text, AnalysisError};
+use crate::frf::file::read_csv;
+use crate::frf::fit::{fit_mode, ModalFit};
 use controllers::Registry;
 use models::milling::MillingCutParams;
 use models::milling_stability::{
@@ -46,6 +48,9 @@ pub struct LobeRequest {
     /// Time-domain check grid (speeds × depths) and run length, s.
     pub check: [usize; 2],
     pub check_duration: f64,
+    /// Measured (or simulated) frequency responses of the tool in x and y (`frf.csv` files):
+    /// the tool's modes are fitted to them instead of read from the scenario's mechanism.
+    pub frf: Option<[PathBuf; 2]>,
 }
 
 /// One time-domain run of the check.
@@ -76,6 +81,8 @@ pub struct LobeAnalysis {
     pub checks: Vec<CheckPoint>,
     /// Speed and depth of the scenario itself (its operating point), rad/s and m.
     pub operating_point: [f64; 2],
+    /// With FRFs: the modes fitted to them (x, y) and the lobes of the scenario's own tool.
+    pub from_frf: Option<([ModalFit; 2], Vec<LobePoint>)>,
 }
 
 /// The tool's modes and the cut from the scenario.
@@ -137,12 +144,34 @@ fn carried_mass(mechanism: &Mechanism, link: usize) -> f64 {
 /// The lobes, then the time-domain check.
 pub fn analyze(request: &LobeRequest, registry: &Registry) -> Result<LobeAnalysis, AnalysisError> {
     let loaded = request.scenario.clone().build(registry).map_err(argument)?;
-    let (tool, cut, depth) = scenario_inputs(&loaded)?;
+    let (model_tool, cut, depth) = scenario_inputs(&loaded)?;
     let sd = SemiDiscretization::default();
     let [low, high] = request.speeds;
     let speeds = spaced(low, high, request.speed_count);
-    let lobes = lobe_diagram(&tool, &cut, &speeds, request.max_depth, &sd).map_err(argument)?;
-    let checks = check(request, registry, (&tool, &cut, &sd))?;
+    let diagram = |tool: &ToolModes| {
+        lobe_diagram(tool, &cut, &speeds, request.max_depth, &sd).map_err(argument)
+    };
+    let (tool, from_frf) = match &request.frf {
+        Some(files) => {
+            let fits = [
+                fitted_mode(&files[0], "--frf-x")?,
+                fitted_mode(&files[1], "--frf-y")?,
+            ];
+            let tool = ToolModes {
+                mass: fits.map(|f| f.mass),
+                stiffness: fits.map(|f| f.stiffness),
+                damping: fits.map(|f| f.damping),
+            };
+            (tool, Some((fits, diagram(&model_tool)?)))
+        }
+        None => (model_tool, None),
+    };
+    let lobes = diagram(&tool)?;
+    // The check judges the scenario's own tool: with FRFs, their lobes are compared with it.
+    let checks = match from_frf {
+        Some(_) => Vec::new(),
+        None => check(request, registry, (&tool, &cut, &sd))?,
+    };
     let speed = loaded
         .scenario
         .initial
@@ -154,6 +183,16 @@ pub fn analyze(request: &LobeRequest, registry: &Registry) -> Result<LobeAnalysi
         lobes,
         checks,
         operating_point: [speed, depth],
+        from_frf,
+    })
+}
+
+/// The mode fitted to an FRF file (a receptance, m/N, as `twin frf` writes it).
+fn fitted_mode(path: &Path, flag: &'static str) -> Result<ModalFit, AnalysisError> {
+    let lines = read_csv(path).map_err(|reason| AnalysisError::Argument { flag, reason })?;
+    fit_mode(&lines).map_err(|reason| AnalysisError::Argument {
+        flag,
+        reason: format!("{}: {reason}", path.display()),
     })
 }
 
@@ -374,6 +413,7 @@ impl LobeAnalysis {
                 lowest.1.chatter_frequency_hz
             );
         }
+        self.frf_summary(&mut out);
         let [speed, depth] = self.operating_point;
         let _ = writeln!(
             out,
@@ -381,6 +421,9 @@ impl LobeAnalysis {
             speed * RPM,
             depth * 1e3
         );
+        if self.from_frf.is_some() {
+            return out;
+        }
         let _ = writeln!(out, "check (time-domain runs vs lobes):\n  speed rpm  depth mm  limit mm  runs     lobes    step early/late nm");
         for c in &self.checks {
             let word = |chatter: bool| if chatter { "chatter" } else { "stable" };
@@ -412,7 +455,48 @@ impl LobeAnalysis {
         out
     }
 
-    /// Writes `lobes.csv`, `check.csv` and `lobes.rrd` into `dir`.
+    /// With FRFs: the fitted modes and how far their lobes are from the scenario tool's.
+    fn frf_summary(&self, out: &mut String) {
+        if let Some((fits, _)) = &self.from_frf {
+            for (axis, fit) in ["x", "y"].iter().zip(fits) {
+                let _ = writeln!(
+                    out,
+                    "{axis} mode fitted to its FRF ({} lines, {:.1}–{:.1} Hz): mass {:.6} kg, \
+                     stiffness {:.6e} N/m, damping {:.4} N·s/m",
+                    fit.lines, fit.band[0], fit.band[1], fit.mass, fit.stiffness, fit.damping
+                );
+            }
+            let (worst, speed) = self.frf_deviation().unwrap_or((f64::NAN, f64::NAN));
+            let _ = writeln!(
+                out,
+                "lobes from the FRFs against the scenario's tool: largest difference in limiting \
+                 depth {:.2} % (at {speed:.0} rpm)",
+                100.0 * worst
+            );
+        }
+    }
+
+    /// With FRFs: the largest relative difference between their lobes' limiting depth and the
+    /// scenario tool's over the diagram, and the speed (rpm) where it is; a speed where only one
+    /// of the two is stable to the maximum depth counts as infinite.
+    pub fn frf_deviation(&self) -> Option<(f64, f64)> {
+        let (_, model) = self.from_frf.as_ref()?;
+        self.lobes
+            .iter()
+            .zip(model)
+            .map(|(p, m)| {
+                let deviation = match (p.boundary, m.boundary) {
+                    (Some(a), Some(b)) => (a.depth / b.depth - 1.0).abs(),
+                    (None, None) => 0.0,
+                    _ => f64::INFINITY,
+                };
+                (deviation, p.spindle_speed * RPM)
+            })
+            .max_by(|a, b| a.0.total_cmp(&b.0))
+    }
+
+    /// Writes `lobes.csv`, `check.csv` and `lobes.rrd` into `dir` (with FRFs also
+    /// `frf-vs-model.csv`: both lobes per speed).
     pub fn write(&self, dir: &Path) -> Result<Vec<PathBuf>, AnalysisError> {
         create_dir(dir)?;
         let mut lobes = String::from("spindle_speed_rpm,limiting_depth_m,chatter_frequency_hz\n");
@@ -447,7 +531,21 @@ impl LobeAnalysis {
         write_text(&files[0], &lobes)?;
         write_text(&files[1], &check)?;
         write_plot(&files[2], &self.plot())?;
-        Ok(files.to_vec())
+        let mut written = files.to_vec();
+        if let Some((_, model)) = &self.from_frf {
+            let depth = |p: &LobePoint| p.boundary.map_or(f64::INFINITY, |b| b.depth);
+            let mut text = String::from(
+                "spindle_speed_rpm,frf_limiting_depth_m,model_limiting_depth_m,relative_difference\n",
+            );
+            for (p, m) in self.lobes.iter().zip(model) {
+                let (a, b) = (depth(p), depth(m));
+                let _ = writeln!(text, "{},{a},{b},{}", p.spindle_speed * RPM, a / b - 1.0);
+            }
+            let path = dir.join("frf-vs-model.csv");
+            write_text(&path, &text)?;
+            written.push(path);
+        }
+        Ok(written)
     }
 }
 
@@ -468,12 +566,12 @@ impl LobeAnalysis {
                 .collect()
         };
         let [speed, depth] = self.operating_point;
-        let layers = vec![
+        let mut layers = vec![
             layer(
                 "lobes",
                 [40, 90, 200],
                 2.0,
-                PlotGeometry::Lines(self.lobe_curves()),
+                PlotGeometry::Lines(lobe_curves(&self.lobes)),
                 vec!["stability limit".into()],
             ),
             layer(
@@ -502,6 +600,15 @@ impl LobeAnalysis {
                 )],
             ),
         ];
+        if let Some((_, model)) = &self.from_frf {
+            layers.push(layer(
+                "model_lobes",
+                [150, 150, 150],
+                1.5,
+                PlotGeometry::Lines(lobe_curves(model)),
+                vec!["scenario's tool".into()],
+            ));
+        }
         Plot2D {
             title: "twin analyze milling: stability lobes".into(),
             notes: format!(
@@ -537,11 +644,13 @@ impl LobeAnalysis {
             .fold(0.0, f64::max)
             .max(1e-6)
     }
+}
 
-    /// The lobes as polylines of (rpm, mm), broken where a speed is stable to the maximum depth.
-    fn lobe_curves(&self) -> Vec<Vec<[f64; 2]>> {
+/// Lobes as polylines of (rpm, mm), broken where a speed is stable to the maximum depth.
+fn lobe_curves(lobes: &[LobePoint]) -> Vec<Vec<[f64; 2]>> {
+    {
         let mut curves = vec![Vec::new()];
-        for p in &self.lobes {
+        for p in lobes {
             match p.boundary {
                 Some(b) => curves
                     .last_mut()

@@ -80,6 +80,13 @@ pub struct AnalyzeArgs {
     /// milling: simulated time of each check run, s.
     #[arg(long, default_value_t = 0.6)]
     pub check_duration: f64,
+    /// milling: the tool's x frequency response (a `twin frf` frf.csv, m/N): the lobes use the
+    /// modes fitted to --frf-x and --frf-y instead of the scenario's, and are compared with its.
+    #[arg(long, requires = "frf_y", value_name = "FILE")]
+    pub frf_x: Option<PathBuf>,
+    /// milling: the tool's y frequency response (see --frf-x).
+    #[arg(long, requires = "frf_x", value_name = "FILE")]
+    pub frf_y: Option<PathBuf>,
     /// Design time constant m_1 of eq (12), s.
     #[arg(
         long,
@@ -208,6 +215,11 @@ fn run_milling(
             max_depth: args.max_depth,
             check: [args.check[0], args.check[1]],
             check_duration: args.check_duration,
+            frf: args
+                .frf_x
+                .clone()
+                .zip(args.frf_y.clone())
+                .map(|(x, y)| [x, y]),
         },
         registry,
     )?;

@@ -1,0 +1,323 @@
+//! `twin frf` on the milling tool (the virtual tap test) and the lobes from its frequency
+//! responses: the tool's modal values come back, and the lobes agree with the model's.
+
+use controllers::Registry;
+use std::f64::consts::TAU;
+use std::path::{Path, PathBuf};
+use twin_cli::analysis::milling::{analyze, LobeRequest};
+use twin_cli::frf::{measure, write, Excitation, FrfArgs, FrfError};
+
+const SCENARIO: &str = "milling-constant-15000";
+
+/// The tap test's command: `--set process.cutting=false`, the tool out of the workpiece.
+fn tap(joint: &str, excitation: Excitation) -> FrfArgs {
+    FrfArgs {
+        scenario: SCENARIO.into(),
+        input: joint.into(),
+        output: format!("{joint}.position"),
+        excitation,
+        averages: 8,
+        band: None,
+        amplitude: None,
+        rate: 10_000.0,
+        segment: 4096,
+        seed: 1,
+        set: vec!["process.cutting=false".into()],
+        out_dir: PathBuf::from("unused"),
+    }
+}
+
+/// The model's modal values from the URDF: (natural frequency Hz, damping ratio) of a tool joint
+/// whose carried mass is `mass`.
+fn model(mass: f64) -> (f64, f64) {
+    let (k, c) = (1.3669e6, 11.064);
+    ((k / mass).sqrt() / TAU, c / (2.0 * (k * mass).sqrt()))
+}
+
+/// The x joint carries the 1 mg carrier and the tip; the y joint the tip.
+const MASS_X: f64 = 0.05598 + 1e-6;
+const MASS_Y: f64 = 0.05598;
+
+fn assert_mode(joint: &str, excitation: Excitation, mass: f64, zeta_tolerance: f64) {
+    let band = (excitation == Excitation::Chirp).then(|| vec![400.0, 1200.0]);
+    let args = FrfArgs {
+        band,
+        ..tap(joint, excitation)
+    };
+    let result = measure(&args, &Registry::builtin()).unwrap();
+    let fit = result.mode.unwrap();
+    let (fn_model, zeta_model) = model(mass);
+    let fn_error = fit.natural_frequency_hz / fn_model - 1.0;
+    let zeta_error = fit.damping_ratio / zeta_model - 1.0;
+    println!("{joint} {excitation:?}: f_n {fn_error:+.2e}, ζ {zeta_error:+.2e}");
+    assert!(
+        fn_error.abs() < 0.01,
+        "{joint}: f_n {}",
+        fit.natural_frequency_hz
+    );
+    assert!(
+        zeta_error.abs() < zeta_tolerance,
+        "{joint}: ζ {}",
+        fit.damping_ratio
+    );
+}
+
+#[test]
+fn the_tap_test_recovers_the_tools_modes() {
+    assert_mode("tool_x", Excitation::Impulse, MASS_X, 0.05);
+    assert_mode("tool_y", Excitation::Impulse, MASS_Y, 0.05);
+    // Noise through a Hann window: its leakage widens the peak slightly.
+    assert_mode("tool_y", Excitation::Noise, MASS_Y, 0.05);
+    // A chirp repeated each segment, swept slowly enough over the mode (400–1200 Hz in 0.41 s)
+    // that its ringing stays under the Hann window with the sweep.
+    assert_mode("tool_x", Excitation::Chirp, MASS_X, 0.05);
+}
+
+#[test]
+fn an_impulse_response_has_unit_coherence_and_the_static_compliance() {
+    let result = measure(&tap("tool_x", Excitation::Impulse), &Registry::builtin()).unwrap();
+    let dc = result.lines[0];
+    assert_eq!(dc.frequency_hz, 0.0);
+    // Static compliance 1/k.
+    assert!(
+        (dc.response.re * 1.3669e6 - 1.0).abs() < 1e-3,
+        "{:?}",
+        dc.response
+    );
+    assert!(result.lines.iter().all(|l| l.coherence > 0.999));
+    // The same inputs, the same bytes.
+    let again = measure(&tap("tool_x", Excitation::Impulse), &Registry::builtin()).unwrap();
+    assert_eq!(
+        twin_cli::frf::file::to_csv(&result.lines),
+        twin_cli::frf::file::to_csv(&again.lines)
+    );
+}
+
+fn lobes(frf: Option<[PathBuf; 2]>) -> twin_cli::analysis::milling::LobeAnalysis {
+    let rpm = |n: f64| n * TAU / 60.0;
+    analyze(
+        &LobeRequest {
+            scenario: twin::Scenario::builtin(SCENARIO).unwrap(),
+            speeds: [rpm(10_000.0), rpm(25_000.0)],
+            speed_count: 21,
+            max_depth: 3e-3,
+            check: [0, 0],
+            check_duration: 0.4,
+            frf,
+        },
+        &Registry::builtin(),
+    )
+    .unwrap_or_else(|e| panic!("{e}"))
+}
+
+#[test]
+fn lobes_from_the_tap_tests_frfs_agree_with_the_models() {
+    let dir = scratch("lobes");
+    let registry = Registry::builtin();
+    let mut files = Vec::new();
+    for joint in ["tool_x", "tool_y"] {
+        let result = measure(&tap(joint, Excitation::Impulse), &registry).unwrap();
+        let written = write(&result, &dir.as_path().join(joint)).unwrap();
+        files.push(written[0].clone());
+    }
+    let from_frf = lobes(Some([files[0].clone(), files[1].clone()]));
+    let (worst, at) = from_frf.frf_deviation().unwrap();
+    println!("{}", from_frf.summary());
+    assert!(worst < 0.02, "{:.2} % at {at} rpm", 100.0 * worst);
+    // Independently: the model's own lobes, computed without FRFs, are the ones compared with.
+    let model = lobes(None);
+    let (_, reference) = from_frf.from_frf.as_ref().unwrap();
+    assert_eq!(&model.lobes, reference);
+    assert!(from_frf.lobes.iter().all(|p| p.boundary.is_some()));
+}
+
+fn error(args: &FrfArgs) -> String {
+    match measure(args, &Registry::builtin()) {
+        Ok(_) => panic!("accepted"),
+        Err(e) => e.to_string(),
+    }
+}
+
+#[test]
+fn bad_frf_input_is_refused_naming_the_argument() {
+    let base = tap("tool_x", Excitation::Impulse);
+    let cases: Vec<(FrfArgs, &[&str])> = vec![
+        (
+            FrfArgs {
+                input: "tool_z".into(),
+                ..base.clone()
+            },
+            &["--input", "tool_z", "tool_x"],
+        ),
+        (
+            FrfArgs {
+                output: "tool_z.position".into(),
+                ..base.clone()
+            },
+            &["--output", "tool_z.position", "known"],
+        ),
+        (
+            FrfArgs {
+                band: Some(vec![10.0, 6000.0]),
+                ..base.clone()
+            },
+            &["--band", "Nyquist", "5000"],
+        ),
+        (
+            FrfArgs {
+                band: Some(vec![100.0, 102.0]),
+                ..base.clone()
+            },
+            &["--band", "resolution", "--segment"],
+        ),
+        (
+            FrfArgs {
+                segment: 1000,
+                ..base.clone()
+            },
+            &["--segment", "power of two"],
+        ),
+        (
+            FrfArgs {
+                averages: 0,
+                ..base.clone()
+            },
+            &["--averages"],
+        ),
+        (
+            FrfArgs {
+                rate: 30_000.0,
+                ..base.clone()
+            },
+            &["--rate", "dt"],
+        ),
+        (
+            FrfArgs {
+                amplitude: Some(f64::NAN),
+                ..base.clone()
+            },
+            &["--amplitude"],
+        ),
+        // The spindle's drive gives at most 12 N·m.
+        (
+            FrfArgs {
+                input: "spindle".into(),
+                output: "spindle.velocity".into(),
+                amplitude: Some(20.0),
+                ..base.clone()
+            },
+            &["--amplitude", "limit 12", "spindle"],
+        ),
+        (
+            FrfArgs {
+                set: vec!["process.cuting=false".into()],
+                ..base.clone()
+            },
+            &["process", "cuting", "cutting"],
+        ),
+        (
+            FrfArgs {
+                scenario: "no-such-scenario".into(),
+                ..base.clone()
+            },
+            &["scenario", "no-such-scenario"],
+        ),
+    ];
+    for (args, words) in cases {
+        let message = error(&args);
+        assert!(!message.contains('\n'), "{message}");
+        for word in words {
+            assert!(message.contains(word), "`{word}` not in: {message}");
+        }
+    }
+}
+
+#[test]
+fn a_diverging_run_is_named() {
+    // The tap (100 N over 0.1 ms: 0.18 m/s) beyond a [health] speed limit of 0.05 m/s, with
+    // the spindle nearly still so that only the tool can exceed it.
+    let mut args = tap("tool_x", Excitation::Impulse);
+    args.set.extend(
+        [
+            "health.max_joint_speed=0.05",
+            "initial.spindle.velocity=0",
+            "controller.params.speed=1e-3",
+        ]
+        .map(String::from),
+    );
+    match measure(&args, &Registry::builtin()) {
+        Err(FrfError::Diverged(message)) => {
+            assert!(message.contains("tool_x.velocity"), "{message}")
+        }
+        other => panic!("{:?}", other.map(|r| r.lines.len())),
+    }
+}
+
+/// An empty folder of this test's own under Cargo's scratch folder for integration tests.
+fn scratch(name: &str) -> PathBuf {
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("frf-{name}"));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+fn frf_file(dir: &Path, name: &str, text: &str) -> PathBuf {
+    let path = dir.join(name);
+    std::fs::write(&path, text).unwrap();
+    path
+}
+
+#[test]
+fn malformed_frf_files_are_refused_naming_file_line_and_column() {
+    let dir = scratch("files");
+    let header = twin_cli::frf::file::HEADER;
+    let good = format!("{header}\n0,1,0,1,1,0\n");
+    let cases = [
+        ("missing.csv", None, vec!["missing.csv", "cannot read"]),
+        (
+            "header.csv",
+            Some("f,m\n0,1\n".to_string()),
+            vec!["header.csv:1", "header"],
+        ),
+        (
+            "nan.csv",
+            Some(format!("{header}\n0,1,0,1,1,0\n2,1,0,1,nan,0\n")),
+            vec!["nan.csv:3", "column 5 (real)", "nan"],
+        ),
+        (
+            "short.csv",
+            Some(format!("{header}\n0,1,0\n")),
+            vec!["short.csv:2", "3 columns"],
+        ),
+        (
+            "order.csv",
+            Some(format!("{header}\n5,1,0,1,1,0\n2,1,0,1,1,0\n")),
+            vec!["order.csv:3", "column 1"],
+        ),
+        ("flat.csv", Some(good), vec!["flat.csv", "--frf-x"]),
+    ];
+    for (name, text, words) in cases {
+        let path = match text {
+            Some(text) => frf_file(dir.as_path(), name, &text),
+            None => dir.as_path().join(name),
+        };
+        let rpm = |n: f64| n * TAU / 60.0;
+        let result = analyze(
+            &LobeRequest {
+                scenario: twin::Scenario::builtin(SCENARIO).unwrap(),
+                speeds: [rpm(10_000.0), rpm(25_000.0)],
+                speed_count: 3,
+                max_depth: 3e-3,
+                check: [0, 0],
+                check_duration: 0.4,
+                frf: Some([path.clone(), path]),
+            },
+            &Registry::builtin(),
+        );
+        let message = result.err().map(|e| e.to_string()).expect("accepted");
+        assert!(!message.contains('\n'), "{message}");
+        for word in words {
+            assert!(message.contains(word), "`{word}` not in: {message}");
+        }
+    }
+}

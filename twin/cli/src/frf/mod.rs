@@ -1,0 +1,418 @@
+//! `twin frf`: a scenario's frequency response from one joint's effort to one of its signals, as
+//! a tap test or a shaker measures it. The twin runs the scenario (its controller as the scenario
+//! says) with an effort from outside the machine added on the joint
+//! ([`twin::Twin::with_joint_effort`]), the output is sampled, and the response is estimated by H1
+//! with Welch averaging ([`estimate`]); the peak's mode is fitted ([`fit`]).
+//!
+//! Excitations, each held over a sample period: `impulse`, a one-sample pulse of the amplitude
+//! at the start of each segment, no window (the response dies within its segment); `chirp`, a
+//! linear sweep over the band once per segment, Hann window; `noise`, uniform white noise within
+//! ± the amplitude (seeded), Hann window, segments overlapping by half. Chirp and noise run one
+//! segment first to settle (not averaged).
+
+pub mod estimate;
+pub mod file;
+pub mod fit;
+
+use estimate::{h1_estimate, FrfLine, Segments, Window};
+use fit::{fit_mode, ModalFit};
+use std::f64::consts::TAU;
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+use thiserror::Error;
+use twin::recordings::{write_study_plots, Scatter, StudyPlots};
+use twin::{Observer, ObserverError, StepView, Twin};
+
+#[derive(Debug, Error)]
+pub enum FrfError {
+    #[error("{flag}: {reason}")]
+    Argument { flag: &'static str, reason: String },
+    #[error("the run diverged: {0}; lower --amplitude or check the scenario")]
+    Diverged(String),
+    #[error("cannot write {path}: {reason}")]
+    Output { path: PathBuf, reason: String },
+    #[error(transparent)]
+    Recording(#[from] twin::RecordingError),
+}
+
+fn argument(flag: &'static str, reason: impl std::fmt::Display) -> FrfError {
+    FrfError::Argument {
+        flag,
+        reason: reason.to_string(),
+    }
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum Excitation {
+    Impulse,
+    Chirp,
+    Noise,
+}
+
+/// `twin frf` arguments.
+#[derive(Debug, Clone, clap::Args)]
+pub struct FrfArgs {
+    /// A built-in scenario name or a scenario .toml file.
+    pub scenario: String,
+    /// The joint excited: its effort (N on a prismatic joint, N·m on a revolute one).
+    #[arg(long)]
+    pub input: String,
+    /// The plant signal measured (e.g. `tool_x.position`).
+    #[arg(long)]
+    pub output: String,
+    #[arg(long, value_enum, default_value_t = Excitation::Impulse)]
+    pub excitation: Excitation,
+    /// Segments averaged (Welch).
+    #[arg(long, default_value_t = 8)]
+    pub averages: usize,
+    /// Frequencies written and swept, Hz (default 0 to the Nyquist frequency).
+    #[arg(long, num_args = 2, value_names = ["F1", "F2"], allow_hyphen_values = true)]
+    pub band: Option<Vec<f64>>,
+    /// Peak effort, N or N·m (default: a tenth of the joint's actuator limit, 100 without one).
+    #[arg(long, allow_hyphen_values = true)]
+    pub amplitude: Option<f64>,
+    /// Sampling rate, Hz: the physics step must divide its period.
+    #[arg(long, default_value_t = 10_000.0, allow_hyphen_values = true)]
+    pub rate: f64,
+    /// Samples per segment, a power of two (resolution = rate / segment).
+    #[arg(long, default_value_t = 4096)]
+    pub segment: usize,
+    /// Seed of the noise excitation.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// Set a scenario value (as `twin run --set`).
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    pub set: Vec<String>,
+    /// Folder for frf.csv and frf.rrd.
+    #[arg(long, default_value = "frf")]
+    pub out_dir: PathBuf,
+}
+
+/// A measured frequency response and the mode fitted at its peak.
+#[derive(Debug, Clone)]
+pub struct FrfResult {
+    pub lines: Vec<FrfLine>,
+    /// `Err` says why no mode could be fitted.
+    pub mode: Result<ModalFit, String>,
+    pub input: String,
+    pub output: String,
+    pub amplitude: f64,
+}
+
+/// Runs `twin frf`: the measurement, its files and a summary for the terminal.
+pub fn run(args: &FrfArgs, registry: &controllers::Registry) -> Result<String, FrfError> {
+    let result = measure(args, registry)?;
+    let files = write(&result, &args.out_dir)?;
+    let mut out = summary(&result);
+    for file in files {
+        let _ = writeln!(out, "wrote {}", file.display());
+    }
+    Ok(out)
+}
+
+/// The plan of a measurement: sample period, segments and the total samples.
+struct Plan {
+    period: f64,
+    segments: Segments,
+    samples: usize,
+    band: [f64; 2],
+}
+
+fn plan(args: &FrfArgs) -> Result<Plan, FrfError> {
+    if !(args.rate.is_finite() && args.rate > 0.0) {
+        return Err(argument(
+            "--rate",
+            format!("must be > 0 Hz, got {}", args.rate),
+        ));
+    }
+    if !(args.segment.is_power_of_two() && (64..=1 << 20).contains(&args.segment)) {
+        return Err(argument(
+            "--segment",
+            format!(
+                "must be a power of two from 64 to 2^20 samples, got {}",
+                args.segment
+            ),
+        ));
+    }
+    if !(1..=1000).contains(&args.averages) {
+        return Err(argument(
+            "--averages",
+            format!("must be 1 to 1000, got {}", args.averages),
+        ));
+    }
+    let nyquist = args.rate / 2.0;
+    let resolution = args.rate / args.segment as f64;
+    let band = match args.band.as_deref() {
+        Some(&[low, high]) => [low, high],
+        _ => [0.0, nyquist],
+    };
+    if !(band[0].is_finite() && band[1].is_finite() && 0.0 <= band[0] && band[0] < band[1]) {
+        return Err(argument(
+            "--band",
+            format!(
+                "must be F1 F2 with 0 ≤ F1 < F2, got {} {}",
+                band[0], band[1]
+            ),
+        ));
+    }
+    if band[1] > nyquist {
+        return Err(argument(
+            "--band",
+            format!(
+                "{} Hz is above the Nyquist frequency {nyquist} Hz of --rate {}; lower F2 or \
+                 raise --rate",
+                band[1], args.rate
+            ),
+        ));
+    }
+    if band[1] - band[0] < 2.0 * resolution {
+        return Err(argument(
+            "--band",
+            format!(
+                "{}–{} Hz is narrower than two lines of the resolution {resolution} Hz (--rate / \
+                 --segment); widen it or lengthen --segment",
+                band[0], band[1]
+            ),
+        ));
+    }
+    let (window, hop, settle) = match args.excitation {
+        Excitation::Impulse => (Window::Rectangular, args.segment, 0),
+        Excitation::Chirp => (Window::Hann, args.segment, args.segment),
+        Excitation::Noise => (Window::Hann, args.segment / 2, args.segment),
+    };
+    let segments = Segments {
+        first: settle,
+        segment: args.segment,
+        hop,
+        count: args.averages,
+        window,
+    };
+    Ok(Plan {
+        period: 1.0 / args.rate,
+        samples: settle + (args.averages - 1) * hop + args.segment,
+        segments,
+        band,
+    })
+}
+
+/// The excitation's samples, each held over a sample period.
+fn excitation(args: &FrfArgs, plan: &Plan, amplitude: f64) -> Vec<f64> {
+    let n = plan.segments.segment;
+    let mut noise = twin::Noise::new(args.seed);
+    (0..plan.samples)
+        .map(|k| match args.excitation {
+            Excitation::Impulse => {
+                if k % n == 0 {
+                    amplitude
+                } else {
+                    0.0
+                }
+            }
+            Excitation::Chirp => {
+                // Linear sweep f(t) = f1 + (f2 − f1)·t/T_seg, restarted every segment.
+                let t = (k % n) as f64 * plan.period;
+                let length = n as f64 * plan.period;
+                let [f1, f2] = plan.band;
+                amplitude * (TAU * (f1 * t + (f2 - f1) * t * t / (2.0 * length))).sin()
+            }
+            Excitation::Noise => amplitude * (2.0 * noise.uniform() - 1.0),
+        })
+        .collect()
+}
+
+/// Samples one plant signal every `every` steps.
+struct Sampler {
+    signal: usize,
+    every: usize,
+    values: Vec<f64>,
+}
+
+impl Observer for Sampler {
+    fn observe(&mut self, view: &StepView) -> Result<(), ObserverError> {
+        if view.step.is_multiple_of(self.every) {
+            self.values.push(view.signals[self.signal]);
+        }
+        Ok(())
+    }
+}
+
+/// Runs the scenario under the excitation and estimates the response.
+pub fn measure(args: &FrfArgs, registry: &controllers::Registry) -> Result<FrfResult, FrfError> {
+    let plan = plan(args)?;
+    let mut scenario = twin::Scenario::open(&args.scenario).map_err(|e| argument("scenario", e))?;
+    for assignment in &args.set {
+        scenario = scenario
+            .assign(assignment)
+            .map_err(|e| argument("--set", e))?;
+    }
+    let duration = plan.samples as f64 * plan.period;
+    let loaded =
+        (scenario.duration(duration).build(registry)).map_err(|e| argument("scenario", e))?;
+    let dt = loaded.scenario.dt;
+    let every = (plan.period / dt).round();
+    if !(every >= 1.0 && (every * dt - plan.period).abs() <= 1e-9 * plan.period) {
+        return Err(argument(
+            "--rate",
+            format!(
+                "its period {} s is not a whole number of the scenario's steps (dt = {dt} s)",
+                plan.period
+            ),
+        ));
+    }
+    let every = every as usize;
+    let twin = Twin::new(loaded).map_err(|e| argument("scenario", e))?;
+    let signal =
+        (twin.plant().signals.iter().position(|s| *s == args.output)).ok_or_else(|| {
+            argument(
+                "--output",
+                format!(
+                    "the scenario has no signal `{}` (known: {})",
+                    args.output,
+                    twin.plant().signals.join(", ")
+                ),
+            )
+        })?;
+    let amplitude = amplitude(args, &twin)?;
+    let samples = excitation(args, &plan, amplitude);
+    let efforts: Vec<f64> = samples
+        .iter()
+        .flat_map(|&u| std::iter::repeat_n(u, every))
+        .collect();
+    let twin = twin
+        .with_joint_effort(&args.input, efforts)
+        .map_err(|e| argument("--input", e))?;
+    let mut sampler = Sampler {
+        signal,
+        every,
+        values: Vec::with_capacity(plan.samples + 1),
+    };
+    let summary =
+        (twin.run_with(None, &mut [&mut sampler])).map_err(|e| argument("scenario", e))?;
+    if let Some(failure) = summary.failure {
+        return Err(FrfError::Diverged(failure.to_string()));
+    }
+    if sampler.values.len() < plan.samples {
+        return Err(argument("scenario", "the run stopped before its end"));
+    }
+    let lines = h1_estimate(
+        &samples,
+        &sampler.values,
+        plan.period,
+        plan.segments,
+        plan.band,
+    );
+    Ok(FrfResult {
+        mode: fit_mode(&lines),
+        lines,
+        input: args.input.clone(),
+        output: args.output.clone(),
+        amplitude,
+    })
+}
+
+/// The excitation's peak: within the joint's actuator limit if it has an actuator.
+fn amplitude(args: &FrfArgs, twin: &Twin) -> Result<f64, FrfError> {
+    let limit = (twin.plant().actuators.iter())
+        .find(|a| a.joint == args.input)
+        .map(|a| a.effort_limit);
+    let amplitude = args
+        .amplitude
+        .unwrap_or_else(|| limit.map_or(100.0, |l| 0.1 * l));
+    if !(amplitude.is_finite() && amplitude > 0.0) {
+        return Err(argument(
+            "--amplitude",
+            format!("must be > 0 (N or N·m), got {amplitude}"),
+        ));
+    }
+    if let Some(limit) = limit.filter(|&l| amplitude > l) {
+        return Err(argument(
+            "--amplitude",
+            format!(
+                "{amplitude} exceeds the actuator limit {limit} of joint `{}`; lower it",
+                args.input
+            ),
+        ));
+    }
+    Ok(amplitude)
+}
+
+/// Writes `frf.csv` and `frf.rrd` (Bode plots and coherence) into `dir`.
+pub fn write(result: &FrfResult, dir: &Path) -> Result<Vec<PathBuf>, FrfError> {
+    std::fs::create_dir_all(dir).map_err(|e| FrfError::Output {
+        path: dir.to_path_buf(),
+        reason: e.to_string(),
+    })?;
+    let files = [dir.join("frf.csv"), dir.join("frf.rrd")];
+    let csv = file::to_csv(&result.lines);
+    twin::OutputFile::create(&files[0])
+        .and_then(|f| f.commit(csv.as_bytes()))
+        .map_err(|e| FrfError::Output {
+            path: e.path,
+            reason: e.reason,
+        })?;
+    write_study_plots(&files[1], &bode(result))?;
+    Ok(files.to_vec())
+}
+
+/// Magnitude in dB (re 1 SI unit per N or N·m), phase in degrees and coherence against frequency.
+fn bode(result: &FrfResult) -> StudyPlots {
+    let series = |name: &str, y_label: &str, value: fn(&FrfLine) -> f64| Scatter {
+        name: name.to_string(),
+        x_label: "frequency [Hz]".to_string(),
+        y_label: y_label.to_string(),
+        points: (result.lines.iter())
+            .map(|l| [l.frequency_hz, value(l)])
+            .collect(),
+        failed: Vec::new(),
+    };
+    StudyPlots {
+        title: format!("frf {} → {}", result.input, result.output),
+        notes: summary(result),
+        histograms: Vec::new(),
+        scatters: vec![
+            series(
+                "magnitude",
+                "magnitude [dB re 1 SI unit per N or N·m]",
+                |l| 20.0 * l.response.abs().log10(),
+            ),
+            series("phase", "phase [°]", |l| l.response.arg().to_degrees()),
+            series("coherence", "coherence γ² [-]", |l| l.coherence),
+        ],
+    }
+}
+
+/// What was measured and the fitted mode.
+pub fn summary(result: &FrfResult) -> String {
+    let mut out = format!(
+        "frequency response {} → {} (peak effort {}): {} lines",
+        result.input,
+        result.output,
+        result.amplitude,
+        result.lines.len()
+    );
+    if let (Some(first), Some(last)) = (result.lines.first(), result.lines.last()) {
+        let _ = write!(out, ", {} to {} Hz", first.frequency_hz, last.frequency_hz);
+    }
+    out.push('\n');
+    match &result.mode {
+        Ok(m) => {
+            let _ = writeln!(
+                out,
+                "mode at the peak (single-mode fit, {} lines {:.1}–{:.1} Hz): f_n {:.3} Hz, ζ \
+                 {:.5}; as a receptance: mass {:.6} kg, stiffness {:.6e} N/m, damping {:.4} N·s/m",
+                m.lines,
+                m.band[0],
+                m.band[1],
+                m.natural_frequency_hz,
+                m.damping_ratio,
+                m.mass,
+                m.stiffness,
+                m.damping
+            );
+        }
+        Err(reason) => {
+            let _ = writeln!(out, "no mode fitted: {reason}");
+        }
+    }
+    out
+}
