@@ -112,7 +112,7 @@ fn close(a: f64, b: f64, tolerance: f64) -> bool {
 fn a_milling_recording_shows_the_chatter_frequency_and_the_tooth_passing_harmonics() {
     let dir = scratch("spectra-chatter");
     let path = dir.join("milling.rrd");
-    let (summary, trace) = milling_run(5e-4, 1.2, &path);
+    let (summary, trace) = milling_run(5e-4, 0.8, &path);
     let contents = inspect(&path).unwrap();
     assert!(contents
         .views_2d
@@ -183,7 +183,7 @@ fn a_milling_recording_shows_the_chatter_frequency_and_the_tooth_passing_harmoni
 fn a_stable_cut_is_marked_stable_under_lobes_that_match_the_stability_analysis() {
     let dir = scratch("spectra-stable");
     let path = dir.join("milling.rrd");
-    let (_, trace) = milling_run(5e-5, 1.2, &path);
+    let (_, trace) = milling_run(5e-5, 0.8, &path);
     let contents = inspect(&path).unwrap();
     // No chatter mark; the point is stable, 15,000 rpm at 0.05 mm.
     assert!(!contents
@@ -289,7 +289,7 @@ fn a_milling_recording_is_the_same_bytes_for_the_same_inputs() {
     let dir = scratch("spectra-bytes");
     let [a, b] = ["a.rrd", "b.rrd"].map(|name| {
         let path = dir.join(name);
-        milling_run(5e-4, 0.6, &path);
+        milling_run(5e-4, 0.45, &path);
         std::fs::read(&path).unwrap()
     });
     assert!(a.len() > 100_000, "{} bytes", a.len());
