@@ -286,7 +286,8 @@ impl Machine for Milling {
 
 /// Speeds of the lobe diagram when the run does not start at speed, rad/s: 10,000–35,000 rpm
 /// (the spindle's rating).
-const LOBE_SPEEDS: [f64; 2] = [1047.1975511965977, 3665.1914291880923];
+const LOBE_SPEEDS: [f64; 2] = [10_000.0 * RAD_PER_S_PER_RPM, 35_000.0 * RAD_PER_S_PER_RPM];
+const RAD_PER_S_PER_RPM: f64 = std::f64::consts::TAU / 60.0;
 
 /// The tool's two modes as the stability analysis takes them: the mass every deflection joint
 /// carries, its `<spring>` stiffness and its `<dynamics>` damping.
