@@ -25,8 +25,9 @@ use std::f64::consts::TAU;
 use std::thread::JoinHandle;
 
 /// A non-harmonic peak of at least this share of the strongest harmonic's amplitude is chatter.
-/// A stable cut's non-harmonic content is its decayed entry transient (below 1e-3 of the
-/// harmonics after 0.4 s); a chattering one's peak exceeds the harmonics.
+/// A stable cut's non-harmonic content is the skirt of its harmonics and its decayed entry
+/// transient (at 15,000 rpm and a_p = 0.05 mm: 0.017 µm against the first harmonic's 2.0 µm, under
+/// 1 %); a chattering one's peak towers over them (366 µm at 795 Hz at a_p = 0.5 mm).
 pub(super) const CHATTER_RATIO: f64 = 0.1;
 /// Most points of a drawn spectrum: beyond, each point is the strongest bin of its stretch.
 const MAX_SPECTRUM_POINTS: usize = 4000;
