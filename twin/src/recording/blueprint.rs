@@ -43,7 +43,8 @@ pub(super) enum Node {
 pub(super) struct FigureView {
     pub entity: String,
     pub title: String,
-    pub bounds: super::plots::Window,
+    /// `[[left, top], [right, bottom]]`, canvas units.
+    pub bounds: [[f64; 2]; 2],
 }
 
 /// The layout: on the left the mechanism (fixed to `bounds`, in machine coordinates) above tabs
