@@ -114,7 +114,14 @@ impl Spectra {
             specs.push(MetricSpec::new(signal, MetricKind::SpectrumPeak, signal));
         }
         for spec in &specs {
-            let watch = self.watch(spec, layout)?;
+            let mut watch = self.watch(spec, layout)?;
+            // Two windows of one signal are two figures.
+            let taken = |name: &str| self.watches.iter().any(|w| w.name == name);
+            if taken(&watch.name) {
+                let base = watch.name.clone();
+                let free = (2..).map(|k| format!("{base} {k}")).find(|n| !taken(n));
+                watch.name = free.unwrap_or(base);
+            }
             self.watches.push(watch);
         }
         self.lobes = self.plan.stability.map(|s| self.start_lobes(s));
@@ -133,16 +140,14 @@ impl Spectra {
         layout: &SignalLayout,
     ) -> Result<SpectrumWatch, ObserverError> {
         let signal = Evaluator::bind(spec, layout)?;
-        let speed = match &self.plan.excitation {
-            Some(excitation) => {
-                let mut speed = spec.clone();
-                speed.kind = MetricKind::Mean;
-                speed.signal.clone_from(&excitation.speed_signal);
-                (speed.reference, speed.scale, speed.frequencies) = (None, 1.0, None);
-                Some(Evaluator::bind(&speed, layout)?)
-            }
-            None => None,
-        };
+        // The excitation's speed over the same window (none when the run does not sense it).
+        let speed = self.plan.excitation.as_ref().and_then(|excitation| {
+            let mut speed = spec.clone();
+            speed.kind = MetricKind::Mean;
+            speed.signal.clone_from(&excitation.speed_signal);
+            (speed.reference, speed.scale, speed.frequencies) = (None, 1.0, None);
+            Evaluator::bind(&speed, layout).ok()
+        });
         let unit = display_unit(spec, layout);
         let measured = spec.signal.starts_with("measured/")
             || spec
