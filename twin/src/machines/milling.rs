@@ -12,12 +12,15 @@
 //! the same angle), and the diagnostics `cutting_force_x`, `cutting_force_y` (N),
 //! `spindle_cutting_torque` (N·m), `chip_thickness` (m, the thickest chip) and `flutes_cutting`.
 
-use super::{default_joint_signals, joint, process_params, Machine, MachineError};
+use super::{
+    default_joint_signals, joint, process_params, Excitation, Machine, MachineError, Stability,
+};
 use crate::mechanism::{Joint, JointMotion, Mechanism};
 use crate::physics::{Load, MechanismState, NO_DAMPING, NO_STIFFNESS};
 use crate::scene::{colors, Bounds, Drawing, Marker, MarkerSource, Scene};
 use controllers::{SignalSpec, Unit};
 use models::milling::{CutForces, MillingCut, MillingCutParams, MAX_FLUTES};
+use models::milling_stability::{CutGeometry, ToolModes};
 use serde::Deserialize;
 
 const MACHINE: &str = "milling";
@@ -54,6 +57,8 @@ pub struct Milling {
     spindle: usize,
     spindle_link: usize,
     tool: ToolJoints,
+    /// The tool's modes, for the lobe diagram (none without springs).
+    modes: Option<ToolModes>,
     cut: Option<MillingCut>,
     forces: CutForces,
     delay: f64,
@@ -73,10 +78,12 @@ impl Milling {
         ) {
             return Err(missing("revolute joint", "spindle"));
         }
+        let tool = tool_joints(mechanism, mechanism.joints[spindle].parent)?;
         Ok(Self {
             spindle,
             spindle_link: mechanism.joints[spindle].child,
-            tool: tool_joints(mechanism, mechanism.joints[spindle].parent)?,
+            modes: tool_modes(mechanism, &tool),
+            tool,
             cut: params.cutting.then_some(cut),
             forces: CutForces::default(),
             delay: 0.0,
@@ -250,6 +257,64 @@ impl Machine for Milling {
     fn metrics(&self) -> Vec<(String, f64)> {
         Vec::new()
     }
+
+    fn excitation(&self) -> Option<Excitation> {
+        let cut = self.cut.as_ref()?;
+        Some(Excitation {
+            speed_signal: "spindle.velocity".into(),
+            per_revolution: cut.params().flutes,
+            vibration_signal: "tool_y.position".into(),
+        })
+    }
+
+    fn stability(&self) -> Option<Stability> {
+        let params = self.cut.as_ref()?.params();
+        Some(Stability {
+            tool: self.modes?,
+            cut: CutGeometry {
+                flutes: params.flutes,
+                cutting_pressure: params.cutting_pressure,
+                force_ratio: params.force_ratio,
+                entry_angle: params.entry_angle,
+                exit_angle: params.exit_angle,
+            },
+            axial_depth: params.axial_depth,
+            speeds: LOBE_SPEEDS,
+        })
+    }
+}
+
+/// Speeds of the lobe diagram when the run does not start at speed, rad/s: 10,000–35,000 rpm
+/// (the spindle's rating).
+const LOBE_SPEEDS: [f64; 2] = [10_000.0 * RAD_PER_S_PER_RPM, 35_000.0 * RAD_PER_S_PER_RPM];
+const RAD_PER_S_PER_RPM: f64 = std::f64::consts::TAU / 60.0;
+
+/// The tool's two modes as the stability analysis takes them: the mass every deflection joint
+/// carries, its `<spring>` stiffness and its `<dynamics>` damping.
+/// `None` when a joint has no spring (a rigid tool has no lobes).
+fn tool_modes(mechanism: &Mechanism, tool: &ToolJoints) -> Option<ToolModes> {
+    let mode = |j: usize| -> Option<[f64; 3]> {
+        let joint = &mechanism.joints[j];
+        let mass = carried_mass(mechanism, joint.child);
+        Some([mass, joint.spring?.stiffness, joint.damping])
+    };
+    let [x, y] = [mode(tool.x)?, mode(tool.y)?];
+    Some(ToolModes {
+        mass: [x[0], y[0]],
+        stiffness: [x[1], y[1]],
+        damping: [x[2], y[2]],
+    })
+}
+
+/// Mass of `link` and every link below it, kg.
+fn carried_mass(mechanism: &Mechanism, link: usize) -> f64 {
+    let own = mechanism.links[link].inertial.map_or(0.0, |i| i.mass);
+    own + mechanism
+        .joints
+        .iter()
+        .filter(|j| j.parent == link)
+        .map(|j| carried_mass(mechanism, j.child))
+        .sum::<f64>()
 }
 
 /// Magnification of the tool tip's deflection in the view: its orbit is drawn 20 times larger.

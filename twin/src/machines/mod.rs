@@ -105,6 +105,44 @@ pub trait Machine {
     /// by name. Figures judged from signals are the scenario's `[[metrics]]`, computed by
     /// evaluators outside the machine.
     fn metrics(&self) -> Vec<(String, f64)>;
+
+    /// What excites the machine's vibration at a multiple of a joint's speed (a mill's flutes),
+    /// for the recording's spectra: their tooth-passing harmonics are marked and a peak between
+    /// them is chatter. `None`: nothing periodic.
+    fn excitation(&self) -> Option<Excitation> {
+        None
+    }
+
+    /// The process's stability lobes, for the recording's lobe diagram. `None`: no regenerative
+    /// process.
+    fn stability(&self) -> Option<Stability> {
+        None
+    }
+}
+
+/// A vibration source turning with a joint.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Excitation {
+    /// The signal of the joint's speed, rad/s (e.g. `spindle.velocity`).
+    pub speed_signal: String,
+    /// Impulses per revolution (a mill's flutes): the tooth-passing frequency is
+    /// `per_revolution·|speed|/2π`.
+    pub per_revolution: usize,
+    /// The signal whose spectrum the recording shows when the scenario declares no spectral
+    /// metric (the tool's displacement).
+    pub vibration_signal: String,
+}
+
+/// The regenerative cut's stability problem ([`models::milling_stability`]) and where the
+/// machine cuts in it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Stability {
+    pub tool: models::milling_stability::ToolModes,
+    pub cut: models::milling_stability::CutGeometry,
+    /// The run's axial depth of cut, m.
+    pub axial_depth: f64,
+    /// Speeds drawn when the scenario gives the spindle no initial speed, rad/s.
+    pub speeds: [f64; 2],
 }
 
 /// The unit of an effort: N·m for a torque, N for a force.

@@ -39,10 +39,24 @@ pub(super) enum Node {
     },
 }
 
+/// A 2D figure of the layout: its entity, title and the canvas area its view shows.
+pub(super) struct FigureView {
+    pub entity: String,
+    pub title: String,
+    /// `[[left, top], [right, bottom]]`, canvas units.
+    pub bounds: [[f64; 2]; 2],
+}
+
 /// The layout: on the left the mechanism (fixed to `bounds`, in machine coordinates) above tabs
-/// with the events, the run's summary and the scenario; on the right one tab per kind of plot
-/// (tracking first), each plot one unit.
-fn layout(title: &str, bounds: Option<Bounds>, plots: &[(String, &PlotSpec)]) -> Node {
+/// with the events, the run's summary and the scenario; on the right the `spectrum` tab with the
+/// run's figures (first and open, when there are any: the chatter frequency is what a machinist
+/// looks for first), then one tab per kind of plot (tracking first), each plot one unit.
+fn layout(
+    title: &str,
+    bounds: Option<Bounds>,
+    plots: &[(String, &PlotSpec)],
+    figures: &[FigureView],
+) -> Node {
     let mut mechanism_properties: Vec<(&'static str, Box<dyn AsComponents>)> = Vec::new();
     if let Some(b) = bounds {
         // The view is y-down; `/mechanism` flips y, so the machine's y range is negated here.
@@ -79,9 +93,9 @@ fn layout(title: &str, bounds: Option<Bounds>, plots: &[(String, &PlotSpec)]) ->
         ],
         vec![3.0, 1.0],
     );
-    let tabs: Vec<Node> = PlotTab::ALL
-        .iter()
-        .filter_map(|tab| plot_tab(*tab, plots))
+    let tabs: Vec<Node> = figure_tab(figures)
+        .into_iter()
+        .chain(PlotTab::ALL.iter().filter_map(|tab| plot_tab(*tab, plots)))
         .collect();
     if tabs.is_empty() {
         return left;
@@ -92,6 +106,28 @@ fn layout(title: &str, bounds: Option<Bounds>, plots: &[(String, &PlotSpec)]) ->
         vec![left, container(ContainerKind::Tabs, "", tabs, vec![])],
         vec![1.0, 1.3],
     )
+}
+
+/// The figures stacked in the `spectrum` tab, or `None` when there are none.
+fn figure_tab(figures: &[FigureView]) -> Option<Node> {
+    let views: Vec<Node> = figures
+        .iter()
+        .map(|figure| {
+            let [[left, top], [right, bottom]] = figure.bounds;
+            let range = Range2D {
+                x_range: [left, right].into(),
+                y_range: [top, bottom].into(),
+            };
+            view(
+                "2D",
+                &figure.title,
+                "/",
+                vec![format!("+ /{}/**", figure.entity)],
+                vec![("VisualBounds2D", Box::new(VisualBounds2D::new(range)))],
+            )
+        })
+        .collect();
+    (!views.is_empty()).then(|| container(ContainerKind::Vertical, "spectrum", views, vec![]))
 }
 
 /// The plots of one tab, stacked or in a two-column grid, or `None` when it has none.
@@ -252,8 +288,14 @@ pub(super) fn send_default(
     title: &str,
     bounds: Option<Bounds>,
     plots: &[(String, &PlotSpec)],
+    figures: &[FigureView],
 ) -> Result<(), String> {
-    send(stream, app, layout(title, bounds, plots), Some(SIM_TIME))
+    send(
+        stream,
+        app,
+        layout(title, bounds, plots, figures),
+        Some(SIM_TIME),
+    )
 }
 
 /// Sends the layout `root` to `stream`, made active and default for its application, with the

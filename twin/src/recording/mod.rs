@@ -12,6 +12,8 @@
 //! - `/mechanism/collisions`: every crash so far, a point labelled with its pair, from its step;
 //! - `/signals/<tab>/<plot>`: one multi-instance `Scalars` per plot, all of one display unit
 //!   ([`PlotSpec`]), with static `SeriesLines` naming (with the unit) and colouring the series;
+//! - `/figures/<name>`: the run's 2D figures drawn at its end (its spectra, a milling run's lobe
+//!   diagram), each axes and data as a static plot of [`plots`] (`axes/…`, `data/<layer>`);
 //! - `/events`: a `TextLog`, from the run's start (scenario, controller, parameters digest) to its
 //!   end (status, headline figures);
 //! - `/summary`: the run's summary as a static text document, written at the end;
@@ -36,7 +38,7 @@ mod study;
 mod writer;
 
 pub use controllers::EventLevel;
-pub use inspect::{inspect, RecordingContents};
+pub use inspect::{inspect, FigureLayer, RecordingContents};
 pub use plots::{write_plot, Plot2D, PlotAxis, PlotGeometry, PlotLayer};
 pub use salvage::{salvage, SalvageReport};
 pub use study::{write_study_plots, Histogram, Scatter, StudyPlots};
@@ -72,6 +74,7 @@ const SIGNALS: &str = "signals";
 const EVENTS: &str = "events";
 const SCENARIO: &str = "scenario";
 const SUMMARY: &str = "summary";
+const FIGURES: &str = "figures";
 /// Where the crashes are drawn.
 const COLLISIONS: &str = "mechanism/collisions";
 /// The crashes' colour (red: nothing else in the view is).
@@ -123,8 +126,22 @@ pub struct RecordingLayout {
     pub scene: Option<Scene>,
     /// The plots. Their series pick, by index, from the values passed to [`Recorder::push`].
     pub plots: Vec<PlotSpec>,
+    /// The run's figures (its spectra, a lobe diagram), drawn when it ends
+    /// ([`Recorder::figure`]): each a name (its entity is `figures/<name>`) and its frame
+    /// (title, axes, aspect), from which the layout frames its view before the run. The y range
+    /// of a frame may be a guess; its x range and aspect must be those of the drawing.
+    pub figures: Vec<(String, Plot2D)>,
     /// Also stream the run to a live viewer while it is written to the file.
     pub live: Option<LiveViewer>,
+}
+
+/// `figures/<name>`, with the name made path-safe.
+fn figure_entity(name: &str) -> String {
+    let slug: String = name
+        .chars()
+        .map(|c| if c.is_ascii_alphanumeric() { c } else { '_' })
+        .collect();
+    format!("{FIGURES}/{slug}")
 }
 
 /// Which tab of the layout a plot is on.
@@ -404,7 +421,17 @@ impl Recorder {
             .collect();
         let scene = layout.scene.as_ref();
         let title = scene.map_or("mechanism", |s| s.title.as_str());
-        blueprint::send_default(&stream, &app, title, scene.map(|s| s.bounds), &plots)
+        let figures: Vec<blueprint::FigureView> = layout
+            .figures
+            .iter()
+            .map(|(name, frame)| blueprint::FigureView {
+                entity: figure_entity(name),
+                title: frame.title.clone(),
+                bounds: plots::visual_bounds(frame),
+            })
+            .collect();
+        let bounds = scene.map(|s| s.bounds);
+        blueprint::send_default(&stream, &app, title, bounds, &plots, &figures)
             .map_err(create_error)?;
         log_layout(&stream, layout).map_err(create_error)?;
         Ok(Recorder {
@@ -586,6 +613,21 @@ impl Recorder {
                 &TextDocument::new(markdown).with_media_type(MediaType::markdown()),
             )
             .map_err(|err| self.write_error(error_chain(&err)))?;
+        self.check()
+    }
+
+    /// Draws the figure `name` of the layout (static): `plot` in the frame the layout gave it.
+    /// Fails, like [`Recorder::push`], once a write to the file has failed.
+    pub fn figure(&mut self, name: &str, plot: &Plot2D) -> Result<(), RecordingError> {
+        let Some(stream) = &self.stream else {
+            return Ok(());
+        };
+        let log = |entity: EntityPath, archetype: &dyn rerun::AsComponents| {
+            stream
+                .log_static(entity, archetype)
+                .map_err(|err| self.write_error(error_chain(&err)))
+        };
+        plots::draw(&log, &figure_entity(name), plot)?;
         self.check()
     }
 

@@ -37,6 +37,8 @@ const GAP: f64 = 4.0;
 /// Estimated width of a label character, and a label's height, canvas units (UI points).
 const CHAR_WIDTH: f64 = 7.0;
 const TEXT_HEIGHT: f64 = 16.0;
+/// Room kept left of the window for the y tick labels, characters, however narrow they are.
+const RESERVED_Y_LABEL_CHARS: usize = 7;
 /// The viewer draws a point's label centred below it, its top this far down.
 const LABEL_DROP: f64 = 5.0;
 /// A curve's label sits this far along the curve's longest in-window piece.
@@ -94,7 +96,7 @@ pub struct Plot2D {
 /// A window in plot units: `[[x_low, y_low], [x_high, y_high]]`.
 pub type Window = [[f64; 2]; 2];
 
-type Log<'a> = dyn Fn(EntityPath, &dyn AsComponents) -> Result<(), RecordingError> + 'a;
+pub(super) type Log<'a> = dyn Fn(EntityPath, &dyn AsComponents) -> Result<(), RecordingError> + 'a;
 
 /// Writes `plot` to `path` (through `<path>.part`, renamed once complete).
 pub fn write_plot(path: &Path, plot: &Plot2D) -> Result<(), RecordingError> {
@@ -110,15 +112,13 @@ pub fn write_plot(path: &Path, plot: &Plot2D) -> Result<(), RecordingError> {
         reason,
     };
 
-    let canvas = Canvas::new(plot);
-    let axes = Axes::new(&canvas);
     let app = rerun::ApplicationId::new_or_unknown(plot.title.clone());
     let stream = RecordingStreamBuilder::new(app.clone())
         .recording_name(plot.title.as_str())
         .enabled(true)
         .save(&partial)
         .map_err(|err| create_error(error_chain(&err)))?;
-    let layout = plot_layout(&plot.title, axes.bounds(&canvas));
+    let layout = plot_layout(&plot.title, visual_bounds(plot));
     blueprint::send(&stream, &app, layout, None).map_err(create_error)?;
     let log = |entity: EntityPath, archetype: &dyn AsComponents| {
         stream
@@ -129,18 +129,36 @@ pub fn write_plot(path: &Path, plot: &Plot2D) -> Result<(), RecordingError> {
         EntityPath::from(NOTES),
         &TextDocument::new(plot.notes.as_str()).with_media_type(MediaType::plain_text()),
     )?;
-    write_axes(&log, &canvas, &axes, plot)?;
-    log(
-        EntityPath::from(format!("{PLOT}/data")),
-        &canvas.transform(),
-    )?;
-    for layer in &plot.layers {
-        write_layer(&log, &canvas, layer)?;
-    }
+    draw(&log, PLOT, plot)?;
     let flushed = stream.flush_blocking().map_err(|err| error_chain(&err));
     drop(stream);
     flushed.map_err(write_error)?;
     std::fs::rename(&partial, path).map_err(|err| write_error(err.to_string()))
+}
+
+/// Draws `plot` under `root` (static): its axes under `<root>/axes`, its layers under
+/// `<root>/data`, in canvas units; [`visual_bounds`] frames it.
+pub(super) fn draw(log: &Log<'_>, root: &str, plot: &Plot2D) -> Result<(), RecordingError> {
+    let canvas = Canvas::new(plot);
+    let axes = Axes::new(&canvas);
+    write_axes(log, root, &canvas, &axes, plot)?;
+    log(
+        EntityPath::from(format!("{root}/data")),
+        &canvas.transform(),
+    )?;
+    for layer in &plot.layers {
+        write_layer(log, root, &canvas, layer)?;
+    }
+    Ok(())
+}
+
+/// The canvas area a 2D view shows for `plot`: the window, its tick labels and titles. It
+/// depends on the x axis, the aspect and the y labels' width, which is taken as at least
+/// [`RESERVED_Y_LABEL_CHARS`] characters, so that a frame whose y range is not known yet (a
+/// spectrum's amplitudes, before the run) gets the bounds its drawing will fit.
+pub(super) fn visual_bounds(plot: &Plot2D) -> Window {
+    let canvas = Canvas::new(plot);
+    Axes::new(&canvas).bounds(&canvas)
 }
 
 /// The plot window on the canvas: plot units ↔ canvas units (y down, origin top left).
@@ -354,7 +372,7 @@ impl Axes {
             .y
             .iter()
             .map(|(_, l)| text_width(l))
-            .fold(0.0, f64::max);
+            .fold(RESERVED_Y_LABEL_CHARS as f64 * CHAR_WIDTH, f64::max);
         TICK + GAP + widest
     }
 
@@ -381,11 +399,12 @@ impl Axes {
 /// Grid, ticks, frame, tick labels and axis titles under `/plot/axes`, in canvas units.
 fn write_axes(
     log: &Log<'_>,
+    root: &str,
     canvas: &Canvas,
     axes: &Axes,
     plot: &Plot2D,
 ) -> Result<(), RecordingError> {
-    let entity = |name: &str| EntityPath::from(format!("{PLOT}/axes/{name}"));
+    let entity = |name: &str| EntityPath::from(format!("{root}/axes/{name}"));
     let (w, h) = (canvas.width, canvas.height);
     let xs: Vec<f64> = axes
         .x
@@ -440,8 +459,13 @@ fn write_axes(
 }
 
 /// One layer under `/plot/data`, clipped to the window, with its curve labels.
-fn write_layer(log: &Log<'_>, canvas: &Canvas, layer: &PlotLayer) -> Result<(), RecordingError> {
-    let name = format!("{PLOT}/data/{}", layer.name.trim_matches('/'));
+fn write_layer(
+    log: &Log<'_>,
+    root: &str,
+    canvas: &Canvas,
+    layer: &PlotLayer,
+) -> Result<(), RecordingError> {
+    let name = format!("{root}/data/{}", layer.name.trim_matches('/'));
     let [r, g, b] = layer.color;
     let color = Color::from_rgb(r, g, b);
     let radius = Radius::new_ui_points(0.5 * layer.size);

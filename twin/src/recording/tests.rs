@@ -64,6 +64,7 @@ fn layout(links: usize, groups: &[(&str, usize)]) -> RecordingLayout {
             .collect(),
         bodies: Vec::new(),
         scene: None,
+        figures: Vec::new(),
         plots: {
             let mut next = 0;
             groups

@@ -149,9 +149,8 @@ impl Evaluator {
             MetricKind::Final => s.last,
             MetricKind::SettleTime => s.settled_since.map_or(f64::NAN, |t| t - self.spec.from),
             MetricKind::SpectrumPeak | MetricKind::SpectrumPeakFrequency => {
-                let period = (s.last_time - s.first_time) / (s.count.max(2) - 1) as f64;
                 let band = self.spec.frequencies.unwrap_or([0.0, f64::INFINITY]);
-                let peak = Spectrum::of(&s.samples, period).peak(band);
+                let peak = self.spectrum().peak(band);
                 match (self.spec.kind, peak) {
                     (MetricKind::SpectrumPeak, Some((_, amplitude))) => amplitude,
                     (_, Some((frequency, _))) => frequency,
@@ -159,6 +158,35 @@ impl Evaluator {
                 }
             }
         }
+    }
+}
+
+impl Evaluator {
+    /// The spectrum of the judged values in the window (a spectral kind's; empty for the
+    /// others, which keep no samples).
+    pub(super) fn spectrum(&self) -> Spectrum {
+        Spectrum::of(&self.statistics.samples, self.sample_period())
+    }
+
+    /// The time between the window's samples, s (0 with fewer than two).
+    pub(super) fn sample_period(&self) -> f64 {
+        let s = &self.statistics;
+        if s.count < 2 {
+            return 0.0;
+        }
+        (s.last_time - s.first_time) / (s.count - 1) as f64
+    }
+
+    /// The window's samples: how many and their first and last times, s.
+    pub(super) fn window(&self) -> (usize, [f64; 2]) {
+        let s = &self.statistics;
+        (s.count, [s.first_time, s.last_time])
+    }
+
+    /// The judged value's smallest, mean and largest over the window (`None`: no sample).
+    pub(super) fn extremes(&self) -> Option<[f64; 3]> {
+        let s = &self.statistics;
+        (s.count > 0).then(|| [s.min, s.sum / s.count as f64, s.max])
     }
 }
 

@@ -9,6 +9,7 @@ mod observer;
 mod operating;
 mod record;
 mod session;
+mod spectra;
 mod stats;
 mod summary;
 
@@ -33,6 +34,7 @@ use evaluate::Evaluator;
 use layout::LayoutParts;
 use record::{RecordingObserver, RecordingParts};
 use session::Session;
+use spectra::SpectraPlan;
 use stats::RunStats;
 use std::path::Path;
 use std::time::Instant;
@@ -383,7 +385,27 @@ impl Twin {
             sensed: self.sensors.iter().map(Option::is_some).collect(),
             start_text,
             live: self.live.clone(),
+            spectra: self.spectra_plan(),
         })
+    }
+
+    /// What the recording's spectra and lobe diagram are made of.
+    fn spectra_plan(&self) -> SpectraPlan {
+        let scenario = &self.loaded.scenario;
+        let excitation = self.machine.excitation();
+        let initial_speed = excitation
+            .as_ref()
+            .and_then(|e| e.speed_signal.split_once('.'))
+            .and_then(|(joint, _)| scenario.initial.get(joint))
+            .map_or(0.0, |state| state.velocity);
+        SpectraPlan {
+            metrics: scenario.metrics.clone(),
+            excitation,
+            stability: self.machine.stability(),
+            dt: scenario.dt,
+            control_period: scenario.control_period(),
+            initial_speed,
+        }
     }
 
     fn stop_requested(&self) -> Option<usize> {

@@ -8,6 +8,7 @@
 
 use super::layout::SignalLayout;
 use super::observer::{Findings, Observer, ObserverError, StepView};
+use super::spectra::{Spectra, SpectraPlan};
 use super::RunSummary;
 use crate::mechanism::{Pose2, Shape};
 use crate::physics::Collision;
@@ -38,6 +39,8 @@ pub struct RecordingObserver {
     collisions: Vec<([f64; 2], String)>,
     last_step: usize,
     last_time: f64,
+    /// The run's spectra and lobe diagram, drawn at its end.
+    spectra: Spectra,
 }
 
 /// A marker's position from the recorded values: `origin + scale·(x, y)`.
@@ -63,6 +66,7 @@ pub struct RecordingParts {
     pub sensed: Vec<bool>,
     pub start_text: String,
     pub live: Option<LiveViewer>,
+    pub spectra: SpectraPlan,
 }
 
 impl RecordingObserver {
@@ -77,6 +81,7 @@ impl RecordingObserver {
                 bodies: parts.bodies,
                 scene: Some(parts.scene),
                 plots: Vec::new(),
+                figures: Vec::new(),
                 live: parts.live,
             },
             sensed: parts.sensed,
@@ -89,6 +94,7 @@ impl RecordingObserver {
             collisions: Vec::new(),
             last_step: 0,
             last_time: 0.0,
+            spectra: Spectra::new(parts.spectra),
         }
     }
 
@@ -100,6 +106,9 @@ impl RecordingObserver {
             let step = step_index(self.last_step);
             recorder.event(step, self.last_time, level, &text)?;
             recorder.summary(&summary_markdown(summary))?;
+            for (name, plot) in self.spectra.figures() {
+                recorder.figure(&name, &plot)?;
+            }
         }
         self.finish()
     }
@@ -416,6 +425,7 @@ fn summary_markdown(summary: &RunSummary) -> String {
 impl Observer for RecordingObserver {
     fn start(&mut self, layout: &SignalLayout) -> Result<(), ObserverError> {
         self.layout.plots = plan(layout, &self.sensed);
+        self.layout.figures = self.spectra.start(layout)?;
         if let Some(scene) = self.layout.scene.as_mut() {
             self.marker_sources = bind_markers(scene, layout);
         }
@@ -430,6 +440,7 @@ impl Observer for RecordingObserver {
         let Some(recorder) = self.recorder.as_mut() else {
             return Ok(());
         };
+        self.spectra.observe(view)?;
         self.last_step = view.step;
         self.last_time = view.time;
         for event in view.events {
