@@ -22,6 +22,7 @@ fn tap(joint: &str, excitation: Excitation) -> FrfArgs {
         rate: 10_000.0,
         segment: 4096,
         seed: 1,
+        controller: None,
         set: vec!["process.cutting=false".into()],
         out_dir: PathBuf::from("unused"),
     }
@@ -320,4 +321,36 @@ fn malformed_frf_files_are_refused_naming_file_line_and_column() {
             assert!(message.contains(word), "`{word}` not in: {message}");
         }
     }
+}
+
+#[test]
+fn the_feed_axis_open_loop_response_is_its_linear_model() {
+    // The table under noise, controller off: the measured H1 against `twin linearize`'s
+    // 1/(m·s² + b·s), where the coherence says the measurement is clean.
+    let args = FrfArgs {
+        scenario: "feed-axis-micromilling".into(),
+        input: "table".into(),
+        output: "table.position".into(),
+        excitation: Excitation::Noise,
+        band: Some(vec![1.0, 200.0]),
+        rate: 1000.0,
+        segment: 1024,
+        controller: Some("passive".into()),
+        ..tap("table", Excitation::Noise)
+    };
+    let result = measure(&args, &Registry::builtin()).unwrap();
+    let difference = twin_cli::frf::linear_difference(&result).unwrap();
+    println!("feed axis: largest |H − G|/|G| {difference:.3e}");
+    assert!(difference < 0.03, "measured vs linear model: {difference}");
+    // With its P-PI on, the loop is closed: no comparison, and the reason names the controller.
+    let closed = measure(
+        &FrfArgs {
+            controller: None,
+            ..args
+        },
+        &Registry::builtin(),
+    )
+    .unwrap();
+    let reason = twin_cli::frf::linear_difference(&closed).unwrap_err();
+    assert!(reason.contains("p-pi"), "{reason}");
 }

@@ -14,7 +14,7 @@ pub mod estimate;
 pub mod file;
 pub mod fit;
 
-use estimate::{h1_estimate, FrfLine, Segments, Window};
+use estimate::{h1_estimate, Complex, FrfLine, Segments, Window};
 use fit::{fit_mode, ModalFit};
 use std::f64::consts::TAU;
 use std::fmt::Write as _;
@@ -80,7 +80,11 @@ pub struct FrfArgs {
     /// Seed of the noise excitation.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
-    /// Set a scenario value (as `twin run --set`).
+    /// Replace the scenario's controller (`passive`: the plant open loop, as the linear model
+    /// describes it).
+    #[arg(long)]
+    pub controller: Option<String>,
+    /// Set a scenario value (as `twin run --set`), after `--controller`.
     #[arg(long = "set", value_name = "KEY=VALUE")]
     pub set: Vec<String>,
     /// Folder for frf.csv and frf.rrd.
@@ -97,6 +101,9 @@ pub struct FrfResult {
     pub input: String,
     pub output: String,
     pub amplitude: f64,
+    /// The linear model's response at the lines (`twin linearize` at t = 0), or why it is not
+    /// comparable with this measurement.
+    pub linear: Result<Vec<Complex>, String>,
 }
 
 /// Runs `twin frf`: the measurement, its files and a summary for the terminal.
@@ -239,15 +246,8 @@ impl Observer for Sampler {
 /// Runs the scenario under the excitation and estimates the response.
 pub fn measure(args: &FrfArgs, registry: &controllers::Registry) -> Result<FrfResult, FrfError> {
     let plan = plan(args)?;
-    let mut scenario = twin::Scenario::open(&args.scenario).map_err(|e| argument("scenario", e))?;
-    for assignment in &args.set {
-        scenario = scenario
-            .assign(assignment)
-            .map_err(|e| argument("--set", e))?;
-    }
     let duration = plan.samples as f64 * plan.period;
-    let loaded =
-        (scenario.duration(duration).build(registry)).map_err(|e| argument("scenario", e))?;
+    let loaded = load(args, registry, duration)?;
     let dt = loaded.scenario.dt;
     let every = (plan.period / dt).round();
     if !(every >= 1.0 && (every * dt - plan.period).abs() <= 1e-9 * plan.period) {
@@ -303,11 +303,71 @@ pub fn measure(args: &FrfArgs, registry: &controllers::Registry) -> Result<FrfRe
     );
     Ok(FrfResult {
         mode: fit_mode(&lines),
+        linear: linear_response(args, registry, duration, &lines),
         lines,
         input: args.input.clone(),
         output: args.output.clone(),
         amplitude,
     })
+}
+
+/// The scenario with the command's `--set` values, over `duration`.
+fn load(
+    args: &FrfArgs,
+    registry: &controllers::Registry,
+    duration: f64,
+) -> Result<twin::LoadedScenario, FrfError> {
+    let mut scenario = twin::Scenario::open(&args.scenario).map_err(|e| argument("scenario", e))?;
+    if let Some(name) = &args.controller {
+        scenario = scenario.controller(name);
+    }
+    for assignment in &args.set {
+        scenario = scenario
+            .assign(assignment)
+            .map_err(|e| argument("--set", e))?;
+    }
+    (scenario.duration(duration).build(registry)).map_err(|e| argument("scenario", e))
+}
+
+/// The linear model's G(j·2πf) from the input's effort to the output at each line, when it
+/// describes what was measured: the plant open loop (controller `passive`: a controller would
+/// close the loop the model leaves open), the input an actuator and the output a state signal.
+fn linear_response(
+    args: &FrfArgs,
+    registry: &controllers::Registry,
+    duration: f64,
+    lines: &[FrfLine],
+) -> Result<Vec<Complex>, String> {
+    let loaded = load(args, registry, duration).map_err(|e| e.to_string())?;
+    if loaded.scenario.controller.name != "passive" {
+        return Err(format!(
+            "the controller `{}` closes the loop (`--controller passive` measures the plant \
+             the model describes)",
+            loaded.scenario.controller.name
+        ));
+    }
+    let model = Twin::new(loaded)
+        .map_err(|e| e.to_string())?
+        .linearize(0.0)
+        .map_err(|e| e.to_string())?;
+    let input = (model.inputs.iter().position(|c| c.name == args.input)).ok_or_else(|| {
+        format!(
+            "`{}` is no input of the linear model (not an actuator)",
+            args.input
+        )
+    })?;
+    let output = (model.outputs.iter().position(|c| c.name == args.output))
+        .ok_or_else(|| format!("`{}` is no output of the linear model", args.output))?;
+    lines
+        .iter()
+        .map(|line| {
+            let omega = TAU * line.frequency_hz;
+            let response = model.frequency_response(omega);
+            let [re, im] = response.ok_or_else(|| format!("a pole at {} Hz", line.frequency_hz))?
+                [output][input];
+            Ok(Complex::new(re, im))
+        })
+        .collect()
 }
 
 /// The excitation's peak: within the joint's actuator limit if it has an actuator.
@@ -354,30 +414,73 @@ pub fn write(result: &FrfResult, dir: &Path) -> Result<Vec<PathBuf>, FrfError> {
     Ok(files.to_vec())
 }
 
-/// Magnitude in dB (re 1 SI unit per N or N·m), phase in degrees and coherence against frequency.
+/// Magnitude in dB (re 1 SI unit per N or N·m), phase in degrees and coherence against
+/// frequency; the linear model's magnitude and phase beside them where it applies.
 fn bode(result: &FrfResult) -> StudyPlots {
-    let series = |name: &str, y_label: &str, value: fn(&FrfLine) -> f64| Scatter {
+    let series = |name: &str, y_label: &str, values: Vec<f64>| Scatter {
         name: name.to_string(),
         x_label: "frequency [Hz]".to_string(),
         y_label: y_label.to_string(),
-        points: (result.lines.iter())
-            .map(|l| [l.frequency_hz, value(l)])
+        points: (result.lines.iter().zip(values))
+            .map(|(l, value)| [l.frequency_hz, value])
             .collect(),
         failed: Vec::new(),
     };
+    let decibels = |z: &Complex| 20.0 * z.abs().log10();
+    let degrees = |z: &Complex| z.arg().to_degrees();
+    let measured: Vec<Complex> = result.lines.iter().map(|l| l.response).collect();
+    const MAGNITUDE: &str = "magnitude [dB re 1 SI unit per N or N·m]";
+    let mut scatters = vec![
+        series(
+            "magnitude",
+            MAGNITUDE,
+            measured.iter().map(decibels).collect(),
+        ),
+        series("phase", "phase [°]", measured.iter().map(degrees).collect()),
+        series(
+            "coherence",
+            "coherence γ² [-]",
+            result.lines.iter().map(|l| l.coherence).collect(),
+        ),
+    ];
+    if let Ok(linear) = &result.linear {
+        let magnitude = series(
+            "linear model magnitude",
+            MAGNITUDE,
+            linear.iter().map(decibels).collect(),
+        );
+        scatters.insert(1, magnitude);
+        scatters.insert(
+            3,
+            series(
+                "linear model phase",
+                "phase [°]",
+                linear.iter().map(degrees).collect(),
+            ),
+        );
+    }
     StudyPlots {
         title: format!("frf {} → {}", result.input, result.output),
         notes: summary(result),
         histograms: Vec::new(),
-        scatters: vec![
-            series(
-                "magnitude",
-                "magnitude [dB re 1 SI unit per N or N·m]",
-                |l| 20.0 * l.response.abs().log10(),
-            ),
-            series("phase", "phase [°]", |l| l.response.arg().to_degrees()),
-            series("coherence", "coherence γ² [-]", |l| l.coherence),
-        ],
+        scatters,
+    }
+}
+
+/// The measured response against the linear model's, where the measurement is clean (coherence
+/// ≥ 0.999): the largest |H − G| / |G|.
+pub fn linear_difference(result: &FrfResult) -> Result<f64, String> {
+    let linear = result.linear.as_ref().map_err(String::clone)?;
+    let clean = (result.lines.iter().zip(linear)).filter(|(l, _)| l.coherence >= 0.999);
+    let difference = clean
+        .map(|(l, g)| {
+            let h = l.response;
+            (h.re - g.re).hypot(h.im - g.im) / g.abs()
+        })
+        .fold(f64::NAN, f64::max);
+    match difference.is_nan() {
+        true => Err("no line with coherence ≥ 0.999 to compare".to_string()),
+        false => Ok(difference),
     }
 }
 
@@ -414,5 +517,13 @@ pub fn summary(result: &FrfResult) -> String {
             let _ = writeln!(out, "no mode fitted: {reason}");
         }
     }
+    let _ = match linear_difference(result) {
+        Ok(d) => writeln!(
+            out,
+            "linear model (twin linearize at t = 0): largest |H − G|/|G| {d:.2e} over the lines \
+             with coherence ≥ 0.999"
+        ),
+        Err(reason) => writeln!(out, "linear model not compared: {reason}"),
+    };
     out
 }
