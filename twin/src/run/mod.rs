@@ -9,12 +9,14 @@ mod observer;
 mod operating;
 mod record;
 mod session;
+mod simulator;
 mod stats;
 mod summary;
 
 pub use layout::SignalLayout;
 pub use observer::{Findings, Observer, ObserverError, StepView};
 pub use operating::LinearizeError;
+pub use simulator::{Simulator, StepError};
 pub use summary::{
     to_json, to_table, write_json, Divergence, FailureKind, Interruption, RunSummary,
 };
