@@ -236,7 +236,12 @@ pub extern "C" fn fmi2GetReal(
     n: usize,
     values: *mut f64,
 ) -> fmi2Status {
-    with(c, |i| each(vr, n, values, |r, v| Ok(*v = i.get_real(r)?)))
+    with(c, |i| {
+        each(vr, n, values, |r, v| {
+            *v = i.get_real(r)?;
+            Ok(())
+        })
+    })
 }
 
 #[no_mangle]
@@ -247,7 +252,10 @@ pub extern "C" fn fmi2GetInteger(
     values: *mut c_int,
 ) -> fmi2Status {
     with(c, |i| {
-        each(vr, n, values, |r, v| Ok(*v = i.get_integer(r)?))
+        each(vr, n, values, |r, v| {
+            *v = i.get_integer(r)?;
+            Ok(())
+        })
     })
 }
 

@@ -166,7 +166,16 @@ impl Instance {
             ));
         }
         let periods = (size / period).round();
-        if !(size > 0.0) || periods < 1.0 || (periods * period - size).abs() > 1e-6 * period {
+        let scenario = self.simulator.scenario();
+        let steps = periods * (period / scenario.dt).round();
+        if steps > scenario.max_steps as f64 {
+            return Err(format!(
+                "communicationStepSize {size} s is {steps} physics steps, beyond max_steps = {}; \
+                 take smaller steps",
+                scenario.max_steps
+            ));
+        }
+        if size.is_nan() || periods < 1.0 || (periods * period - size).abs() > 1e-6 * period {
             return Err(format!(
                 "communicationStepSize {size} s is not a whole multiple of the scenario's control \
                  period {period} s (efforts change only at control updates); use a multiple of it"
