@@ -65,6 +65,8 @@ impl Host {
 struct Component {
     host: Host,
     instance: Instance,
+    /// A call panicked: the instance's state is unknown, every later call is fmi2Fatal.
+    broken: bool,
 }
 
 fn text(s: fmi2String) -> Option<String> {
@@ -77,6 +79,12 @@ fn with(c: fmi2Component, call: impl FnOnce(&mut Instance) -> Result<(), String>
         return ERROR;
     }
     let component = unsafe { &mut *(c as *mut Component) };
+    if component.broken {
+        component
+            .host
+            .log(FATAL, "an earlier call failed inside; free this instance");
+        return FATAL;
+    }
     let instance = &mut component.instance;
     match catch_unwind(AssertUnwindSafe(|| call(instance))) {
         Ok(Ok(())) => OK,
@@ -163,7 +171,11 @@ pub unsafe extern "C" fn fmi2Instantiate(
             resources.and_then(|r| Instance::new(&r, &guid))
         };
         match instance {
-            Ok(instance) => Box::into_raw(Box::new(Component { host, instance })) as fmi2Component,
+            Ok(instance) => Box::into_raw(Box::new(Component {
+                host,
+                instance,
+                broken: false,
+            })) as fmi2Component,
             Err(reason) => {
                 host.log(ERROR, &reason);
                 std::ptr::null_mut()

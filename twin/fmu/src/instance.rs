@@ -189,3 +189,103 @@ impl Instance {
         Ok(())
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::description::model_description;
+    use twin::{Scenario, Simulator};
+
+    /// A resources/ folder as `twin fmu` writes it (the scenario's TOML with `urdf = "urdf/…"`).
+    fn resources(name: &str) -> (tempfile::TempDir, String, String) {
+        let loaded = Scenario::builtin(name)
+            .and_then(|s| s.build(&Registry::builtin()))
+            .unwrap();
+        let dir = tempfile::tempdir().unwrap();
+        let mut table: toml::Table = toml::from_str(&loaded.toml).unwrap();
+        table.insert("urdf".into(), "urdf/model.urdf".into());
+        std::fs::create_dir(dir.path().join("urdf")).unwrap();
+        std::fs::write(dir.path().join("urdf/model.urdf"), &loaded.urdf_text).unwrap();
+        std::fs::write(
+            dir.path().join(SCENARIO_FILE),
+            toml::to_string(&table).unwrap(),
+        )
+        .unwrap();
+        let (_, guid) = model_description(&Simulator::new(loaded).unwrap());
+        let uri = format!("file://{}", dir.path().display()).replace(' ', "%20");
+        (dir, uri, guid)
+    }
+
+    #[test]
+    fn resource_uris_are_read_as_folders() {
+        let folder = |uri: &str| resource_folder(uri).map(|p| p.display().to_string());
+        assert_eq!(
+            folder("file:///a/b%20c/resources"),
+            Ok("/a/b c/resources".into())
+        );
+        assert_eq!(folder("file://localhost/a/r"), Ok("/a/r".into()));
+        assert_eq!(folder("file:/a/r"), Ok("/a/r".into()));
+        let error = folder("http://host/a").unwrap_err();
+        assert_eq!(
+            error,
+            "resourceLocation `http://host/a` is not a file:// URI of a folder"
+        );
+    }
+
+    #[test]
+    fn an_instance_checks_its_guid_inputs_and_steps() {
+        let (_dir, uri, guid) = resources("whitworth-crank-pi");
+        let error = Instance::new(&uri, "{other}").err().unwrap();
+        assert!(
+            error.starts_with(&format!("fmuGUID {{other}} is not this FMU's {guid}")),
+            "{error}"
+        );
+        let mut instance = Instance::new(&uri, &guid).unwrap();
+        let refused = instance.do_step(0.0, 0.001).unwrap_err();
+        assert!(
+            refused.contains("before fmi2ExitInitializationMode"),
+            "{refused}"
+        );
+        instance.restart().unwrap();
+        instance.phase = Phase::Stepping;
+        let error = instance.set_real(1, f64::NAN).unwrap_err();
+        assert_eq!(
+            error,
+            "effort of actuator `crank` is NaN: must be a finite number"
+        );
+        assert!(instance
+            .set_real(2, 1.0)
+            .unwrap_err()
+            .contains("is an output"));
+        assert!(instance
+            .set_integer(SEED, 3)
+            .unwrap_err()
+            .contains("seed is fixed"));
+        for size in [0.0015, 0.0, -0.001, f64::NAN, f64::INFINITY] {
+            assert!(instance.do_step(0.0, size).is_err(), "{size}");
+        }
+        assert_eq!(
+            instance.simulator.time(),
+            0.0,
+            "refused steps do not advance"
+        );
+        instance.set_real(1, 5.0).unwrap();
+        instance.do_step(0.0, 0.003).unwrap();
+        assert_eq!(instance.simulator.time(), 0.003);
+        assert!(instance
+            .do_step(0.002, 0.001)
+            .unwrap_err()
+            .contains("is not the FMU's time"));
+        // The true crank.velocity, after the efforts and the measured signals.
+        let true_velocity = 2 + instance.simulator.signal_specs().len() as u32 + 1;
+        assert!(
+            instance.get_real(true_velocity).unwrap().abs() > 0.0,
+            "the crank turned"
+        );
+        instance.reset().unwrap();
+        assert_eq!(
+            (instance.simulator.time(), instance.get_real(1)),
+            (0.0, Ok(0.0))
+        );
+    }
+}

@@ -138,11 +138,6 @@ impl Simulator {
         &self.session.twin().loaded.scenario
     }
 
-    /// The scenario's TOML as loaded, and its URDF's text.
-    pub fn sources(&self) -> (&str, &str) {
-        (&self.recipe.toml, &self.recipe.urdf_text)
-    }
-
     /// The actuators, in the order of a step's efforts, with their limits.
     pub fn actuators(&self) -> &[Actuator] {
         &self.session.twin().plant.actuators
