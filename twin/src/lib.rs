@@ -31,7 +31,7 @@ pub use physics::Collision;
 pub use recording::{LiveViewer, RecordingError};
 pub use run::{
     Divergence, FailureKind, Findings, Interruption, LinearizeError, Observer, ObserverError,
-    RunSummary, SignalLayout, StepView, StopFlag, Twin, TwinError,
+    RunSummary, SignalLayout, Simulator, StepError, StepView, StopFlag, Twin, TwinError,
 };
 pub use scenario::{
     load as load_scenario, AllowedContact, BodyKind, BodyShape, BodySpec, ContactOptions, Engine,

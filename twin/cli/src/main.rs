@@ -51,6 +51,25 @@ enum Command {
     /// Run a study: a scenario over grid and random axes, in parallel, scored against specs
     /// (`twin sweep merge` joins shard folders).
     Sweep(SweepArgs),
+    /// Package a scenario's plant (its controller left out) as an FMI 2.0 co-simulation FMU:
+    /// inputs the actuators' efforts, outputs the measured and true signals.
+    Fmu(FmuArgs),
+}
+
+#[derive(clap::Args)]
+struct FmuArgs {
+    /// A built-in scenario name or a scenario .toml file.
+    scenario: String,
+    /// Override a scenario value (as `twin run --set`); the FMU carries the scenario as set.
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    set: Vec<String>,
+    /// The .fmu file to write.
+    #[arg(long, required = true)]
+    out: PathBuf,
+    /// The built twin-fmu shared library; default: libtwin_fmu.so next to this executable
+    /// (`cargo build --release -p twin-cli -p twin-fmu` puts both in target/release).
+    #[arg(long)]
+    library: Option<PathBuf>,
 }
 
 #[derive(clap::Args)]
@@ -257,6 +276,7 @@ fn main() -> ExitCode {
         Command::Salvage(args) => salvage(args),
         Command::Sweep(args) => sweep(args, &registry),
         Command::Linearize(args) => linearize(args, &registry),
+        Command::Fmu(args) => fmu(args, &registry),
         Command::Analyze(args) => analysis::run(&args, &registry)
             .map(|summary| {
                 print!("{summary}");
@@ -416,6 +436,34 @@ fn run(args: RunArgs, registry: &Registry) -> Result<ExitCode, Failure> {
 
 /// `twin linearize`: the linear model into OUT_DIR/linear.json and its table on stdout. The
 /// folder is made and its file opened before the run, so an unwritable one fails first.
+/// `twin fmu`: the scenario's plant packed as an .fmu beside the built shared library.
+fn fmu(args: FmuArgs, registry: &Registry) -> Result<ExitCode, Failure> {
+    let overrides = Overrides {
+        set: args.set,
+        ..Overrides::default()
+    };
+    let loaded = Scenario::open(&args.scenario)?
+        .overrides(&overrides)?
+        .build(registry)?;
+    let library = match args.library {
+        Some(path) => path,
+        None => std::env::current_exe()
+            .map_err(|e| format!("the twin executable's folder: {e}; give --library"))?
+            .with_file_name("libtwin_fmu.so"),
+    };
+    let file = OutputFile::create(&args.out).map_err(|e| format!("--out: {e}"))?;
+    let (bytes, packed) = twin_fmu::package(loaded, &library)?;
+    file.commit(&bytes).map_err(|e| format!("--out: {e}"))?;
+    println!(
+        "{}: FMI 2.0 co-simulation, model identifier {}, GUID {}, {:.1} MB",
+        args.out.display(),
+        packed.model_identifier,
+        packed.guid,
+        packed.bytes as f64 / 1e6
+    );
+    Ok(ExitCode::SUCCESS)
+}
+
 fn linearize(args: LinearizeArgs, registry: &Registry) -> Result<ExitCode, Failure> {
     let overrides = Overrides {
         set: [reproduce::engine_override(args.engine), args.set].concat(),

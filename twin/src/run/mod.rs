@@ -9,6 +9,7 @@ mod observer;
 mod operating;
 mod record;
 mod session;
+mod simulator;
 mod spectra;
 mod stats;
 mod summary;
@@ -16,6 +17,7 @@ mod summary;
 pub use layout::SignalLayout;
 pub use observer::{Findings, Observer, ObserverError, StepView};
 pub use operating::LinearizeError;
+pub use simulator::{Simulator, StepError};
 pub use summary::{
     to_json, to_table, write_json, Divergence, FailureKind, Interruption, RunSummary,
 };

@@ -251,7 +251,7 @@ fn measure(
 }
 
 /// The SI unit of a value shown in `unit`.
-fn si_unit(unit: Unit) -> &'static str {
+pub(super) fn si_unit(unit: Unit) -> &'static str {
     match unit {
         Unit::Metre | Unit::Millimetre | Unit::Micrometre => "m",
         Unit::MetrePerSecond | Unit::MillimetrePerSecond | Unit::MicrometrePerSecond => "m/s",

@@ -9,6 +9,7 @@ use crate::mechanism::Pose2;
 use crate::physics::{Load, MechanismState, Physics, SolverSettings};
 use crate::sensors::Noise;
 use controllers::{Event, EventKind, Measurement};
+use std::ops::DerefMut;
 
 /// How a run ended.
 pub(super) struct Ending {
@@ -46,9 +47,10 @@ impl Buffers {
     }
 }
 
-/// A twin being run.
-pub(super) struct Session<'t> {
-    twin: &'t mut Twin,
+/// A twin being run: borrowed for a whole run, or owned by a [`super::Simulator`] stepped from
+/// outside.
+pub(super) struct Session<T: DerefMut<Target = Twin>> {
+    twin: T,
     physics: Physics,
     values: Buffers,
     noise: Noise,
@@ -59,8 +61,8 @@ pub(super) struct Session<'t> {
     record_every: usize,
 }
 
-impl<'t> Session<'t> {
-    pub fn new(twin: &'t mut Twin) -> Self {
+impl<T: DerefMut<Target = Twin>> Session<T> {
+    pub fn new(twin: T) -> Self {
         let scenario = &twin.loaded.scenario;
         let mut physics = Physics::new(
             &twin.mechanism,
@@ -105,10 +107,7 @@ impl<'t> Session<'t> {
     /// Steps until the scenario's end, a divergence or a stop request.
     pub fn run(mut self, observers: &mut [&mut dyn Observer]) -> Result<Ending, TwinError> {
         let steps = self.twin.loaded.scenario.steps();
-        self.physics.read_state(&mut self.values.state);
-        let values = &self.values;
-        let start = (self.twin.contacts).check_start(&values.state.link_poses, values.bodies());
-        start.map_err(|error| self.twin.binding_error(error.to_string()))?;
+        self.start()?;
         let mut step = 0;
         loop {
             let time = step as f64 * self.dt;
@@ -153,6 +152,74 @@ impl<'t> Session<'t> {
             self.advance(step, time);
             step += 1;
         }
+    }
+
+    /// Reads the starting state; a body overlapping a link it may not touch is refused.
+    fn start(&mut self) -> Result<(), TwinError> {
+        self.physics.read_state(&mut self.values.state);
+        let values = &self.values;
+        let start = (self.twin.contacts).check_start(&values.state.link_poses, values.bodies());
+        start.map_err(|error| self.twin.binding_error(error.to_string()))
+    }
+
+    /// Prepares stepping from outside ([`super::Simulator`]): the starting state sensed and
+    /// measured as a run's first control update sees it, or why it fails its health check.
+    pub fn begin(&mut self) -> Result<Option<Divergence>, TwinError> {
+        self.start()?;
+        Ok(self.sense_step(0))
+    }
+
+    /// From the control update at `step`, one control period with the finite efforts
+    /// `commanded` held: clipped to the limits, through the actuator faults and the drives, the
+    /// physics stepped and each new state sensed as in [`Session::run`]. The step reached, or the
+    /// first failure.
+    pub fn hold(&mut self, step: usize, commanded: &[f64]) -> Result<usize, Divergence> {
+        self.values.commanded.copy_from_slice(commanded);
+        if let Some(failure) = self.limit(step, step as f64 * self.dt) {
+            return Err(failure);
+        }
+        self.twin.faults.actuators(&mut self.values.limited);
+        for k in step..step + self.control_every {
+            let values = &mut self.values;
+            (self.twin.machine).drive(self.dt, &values.limited, &mut values.applied);
+            self.advance(k, k as f64 * self.dt);
+            if let Some(failure) = self.sense_step(k + 1) {
+                return Err(failure);
+            }
+        }
+        Ok(step + self.control_every)
+    }
+
+    /// What the sensors read at the last control update.
+    pub fn measured(&self) -> &[f64] {
+        &self.values.measured
+    }
+
+    /// The plant's true signals now.
+    pub fn signals(&self) -> &[f64] {
+        &self.values.signals
+    }
+
+    /// The twin being stepped.
+    pub fn twin(&self) -> &Twin {
+        &self.twin
+    }
+
+    /// Faults, true signals, health and crashes at `step`, then the sensors on a control
+    /// update: a run's step up to its controller. Its events are dropped (no observer).
+    fn sense_step(&mut self, step: usize) -> Option<Divergence> {
+        let time = step as f64 * self.dt;
+        self.apply_faults(time);
+        self.sense(time);
+        let values = &self.values;
+        let failure = (self.twin)
+            .check_health(step, time, &values.state, &values.signals)
+            .or_else(|| self.collide(step, time));
+        if failure.is_none() && step.is_multiple_of(self.control_every) {
+            self.read_sensors(time);
+        }
+        self.values.events.clear();
+        failure
     }
 
     /// Starts and ends faults; a plant or process fault changes the physics or the machine.
@@ -233,15 +300,9 @@ impl<'t> Session<'t> {
 
     /// Through the sensors to the controller: new commanded efforts, internals and events.
     fn control(&mut self, time: f64) {
+        self.read_sensors(time);
         let twin = &mut *self.twin;
         let values = &mut self.values;
-        for (i, sensor) in twin.sensors.iter_mut().enumerate() {
-            values.measured[i] = match sensor {
-                Some(sensor) => sensor.read(values.signals[i], &mut self.noise),
-                None => values.signals[i],
-            };
-        }
-        twin.faults.sensors(time, &mut values.measured);
         values.commanded.fill(0.0);
         twin.loaded.controller.update(
             &Measurement {
@@ -255,6 +316,19 @@ impl<'t> Session<'t> {
             .controller
             .internal_values(&mut values.internals);
         twin.loaded.controller.drain_events(&mut values.events);
+    }
+
+    /// The true signals through the sensors (and their faults): what is measured at `time`.
+    fn read_sensors(&mut self, time: f64) {
+        let twin = &mut *self.twin;
+        let values = &mut self.values;
+        for (i, sensor) in twin.sensors.iter_mut().enumerate() {
+            values.measured[i] = match sensor {
+                Some(sensor) => sensor.read(values.signals[i], &mut self.noise),
+                None => values.signals[i],
+            };
+        }
+        twin.faults.sensors(time, &mut values.measured);
     }
 
     /// Clips the commands to the actuator limits, with an event when one starts or stops

@@ -1,0 +1,159 @@
+//! `twin fmu`: the .fmu archive on success (its entries, the GUID in its description, the same
+//! bytes twice); every bad input a one-line error naming the argument or key, nothing on disk.
+//! FMPy's checks of the FMUs are in twin/fmu/tests/test_fmpy.py.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn twin(args: &[&str], cwd: &Path) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_twin"))
+        .args(args)
+        .current_dir(cwd)
+        .output()
+        .expect("twin runs")
+}
+
+fn scratch(test: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("twin-fmu-{}-{test}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    // Stands for the shared library: the packing copies its bytes.
+    std::fs::write(dir.join("lib.so"), b"\x7fELF stand-in").unwrap();
+    dir
+}
+
+/// The names of a stored zip's entries, from its central directory.
+fn entries(zip: &[u8]) -> Vec<String> {
+    let end = zip.len() - 22;
+    assert_eq!(&zip[end..end + 4], b"PK\x05\x06", "end record");
+    let count = u16::from_le_bytes([zip[end + 10], zip[end + 11]]) as usize;
+    let mut at = u32::from_le_bytes(zip[end + 16..end + 20].try_into().unwrap()) as usize;
+    (0..count)
+        .map(|_| {
+            assert_eq!(&zip[at..at + 4], b"PK\x01\x02", "central entry");
+            let len = u16::from_le_bytes([zip[at + 28], zip[at + 29]]) as usize;
+            let name = String::from_utf8(zip[at + 46..at + 46 + len].to_vec()).unwrap();
+            at += 46 + len;
+            name
+        })
+        .collect()
+}
+
+#[test]
+fn an_fmu_holds_its_description_library_and_resources_and_is_reproducible() {
+    let dir = scratch("ok");
+    let args = [
+        "fmu",
+        "feed-axis-micromilling",
+        "--out",
+        "a.fmu",
+        "--library",
+        "lib.so",
+    ];
+    let output = twin(&args, &dir);
+    let stdout = String::from_utf8_lossy(&output.stdout);
+    assert!(
+        output.status.success(),
+        "{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    assert!(
+        stdout.contains("model identifier twin_feed_axis_micromilling"),
+        "{stdout}"
+    );
+    let zip = std::fs::read(dir.join("a.fmu")).unwrap();
+    assert_eq!(
+        entries(&zip),
+        [
+            "modelDescription.xml",
+            "binaries/linux64/twin_feed_axis_micromilling.so",
+            "resources/scenario.toml",
+            "resources/urdf/feed_axis.urdf",
+        ]
+    );
+    let text = String::from_utf8_lossy(&zip);
+    let guid = stdout
+        .split("GUID ")
+        .nth(1)
+        .unwrap()
+        .split(',')
+        .next()
+        .unwrap();
+    assert!(text.contains(&format!("guid=\"{guid}\"")), "{guid}");
+    assert!(text.contains("name=\"effort.table\""));
+    assert!(text.contains("urdf = \"urdf/feed_axis.urdf\""));
+    let args = [
+        "fmu",
+        "feed-axis-micromilling",
+        "--out",
+        "b.fmu",
+        "--library",
+        "lib.so",
+    ];
+    assert!(twin(&args, &dir).status.success());
+    assert_eq!(
+        zip,
+        std::fs::read(dir.join("b.fmu")).unwrap(),
+        "same inputs, same bytes"
+    );
+    let args = [
+        "fmu",
+        "feed-axis-micromilling",
+        "--out",
+        "c.fmu",
+        "--library",
+        "lib.so",
+        "--set",
+        "seed=7",
+    ];
+    assert!(twin(&args, &dir).status.success());
+    let other = String::from_utf8_lossy(&std::fs::read(dir.join("c.fmu")).unwrap()).into_owned();
+    assert!(
+        other.contains("<Integer start=\"7\"/>") && !other.contains(&format!("guid=\"{guid}\""))
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn bad_inputs_are_one_line_errors_and_leave_nothing() {
+    for (test, args, parts) in [
+        (
+            "lib",
+            vec!["--library", "missing.so"],
+            vec![
+                "FMU library missing.so",
+                "cargo build --release -p twin-fmu",
+            ],
+        ),
+        (
+            "set",
+            vec!["--library", "lib.so", "--set", "dt=-1"],
+            vec!["dt"],
+        ),
+        (
+            "out",
+            vec!["--library", "lib.so", "--out", "no/such/x.fmu"],
+            vec!["--out", "no/such"],
+        ),
+    ] {
+        let dir = scratch(test);
+        let mut all = vec!["fmu", "whitworth-crank-pi"];
+        if !args.contains(&"--out") {
+            all.extend(["--out", "x.fmu"]);
+        }
+        all.extend(&args);
+        let output = twin(&all, &dir);
+        let stderr = String::from_utf8_lossy(&output.stderr);
+        assert_eq!(output.status.code(), Some(1), "{all:?}: {stderr}");
+        assert_eq!(stderr.trim().lines().count(), 1, "{stderr}");
+        for part in parts {
+            assert!(stderr.contains(part), "{all:?}: {stderr} lacks {part}");
+        }
+        let left: Vec<_> = std::fs::read_dir(&dir)
+            .unwrap()
+            .map(|e| e.unwrap().file_name())
+            .collect();
+        assert_eq!(left, ["lib.so"], "{all:?} left files");
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+}
