@@ -292,6 +292,13 @@ pub struct Mechanism {
 }
 
 impl Mechanism {
+    /// Mass of `link` and every link below it in the tree, kg.
+    pub fn carried_mass(&self, link: usize) -> f64 {
+        let own = self.links[link].inertial.map_or(0.0, |i| i.mass);
+        let below = self.joints.iter().filter(|j| j.parent == link);
+        own + below.map(|j| self.carried_mass(j.child)).sum::<f64>()
+    }
+
     pub fn link_index(&self, name: &str) -> Option<usize> {
         self.links.iter().position(|l| l.name == name)
     }

@@ -58,8 +58,9 @@ impl Spectrum {
     }
 }
 
-/// In-place iterative radix-2 FFT; `re.len()` must be a power of two.
-fn fft(re: &mut [f64], im: &mut [f64]) {
+/// In-place iterative radix-2 FFT (X_k = Σ x_n e^(−2πikn/N)); `re.len()` must be a power of
+/// two.
+pub fn fft(re: &mut [f64], im: &mut [f64]) {
     let n = re.len();
     let mut j = 0;
     for i in 1..n {

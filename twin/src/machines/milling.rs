@@ -295,7 +295,7 @@ const RAD_PER_S_PER_RPM: f64 = std::f64::consts::TAU / 60.0;
 fn tool_modes(mechanism: &Mechanism, tool: &ToolJoints) -> Option<ToolModes> {
     let mode = |j: usize| -> Option<[f64; 3]> {
         let joint = &mechanism.joints[j];
-        let mass = carried_mass(mechanism, joint.child);
+        let mass = mechanism.carried_mass(joint.child);
         Some([mass, joint.spring?.stiffness, joint.damping])
     };
     let [x, y] = [mode(tool.x)?, mode(tool.y)?];
@@ -304,17 +304,6 @@ fn tool_modes(mechanism: &Mechanism, tool: &ToolJoints) -> Option<ToolModes> {
         stiffness: [x[1], y[1]],
         damping: [x[2], y[2]],
     })
-}
-
-/// Mass of `link` and every link below it, kg.
-fn carried_mass(mechanism: &Mechanism, link: usize) -> f64 {
-    let own = mechanism.links[link].inertial.map_or(0.0, |i| i.mass);
-    own + mechanism
-        .joints
-        .iter()
-        .filter(|j| j.parent == link)
-        .map(|j| carried_mass(mechanism, j.child))
-        .sum::<f64>()
 }
 
 /// Magnification of the tool tip's deflection in the view: its orbit is drawn 20 times larger.

@@ -70,6 +70,24 @@ pub struct PlotLayer {
     pub labels: Vec<String>,
 }
 
+impl PlotLayer {
+    pub fn new(
+        name: &str,
+        color: [u8; 3],
+        size: f32,
+        geometry: PlotGeometry,
+        labels: Vec<String>,
+    ) -> Self {
+        Self {
+            name: name.into(),
+            color,
+            size,
+            geometry,
+            labels,
+        }
+    }
+}
+
 /// One axis of a plot: its title and the window along it.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct PlotAxis {

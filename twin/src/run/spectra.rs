@@ -393,22 +393,6 @@ fn spectrum_line(analysis: &Analysis, factor: f64) -> Vec<[f64; 2]> {
         .collect()
 }
 
-fn layer(
-    name: &str,
-    color: [u8; 3],
-    size: f32,
-    geometry: PlotGeometry,
-    labels: Vec<String>,
-) -> PlotLayer {
-    PlotLayer {
-        name: name.into(),
-        color,
-        size,
-        geometry,
-        labels,
-    }
-}
-
 /// The spectrum with its harmonics (grey, `k×` at their top) and its chatter or dominant peak
 /// (a line from the top down, labelled with its frequency).
 fn spectrum_figure(watch: &SpectrumWatch, analysis: &Analysis) -> Plot2D {
@@ -437,14 +421,14 @@ fn spectrum_figure(watch: &SpectrumWatch, analysis: &Analysis) -> Plot2D {
     let marks = (1..=analysis.harmonics.len())
         .map(|k| format!("{k}×"))
         .collect();
-    plot.layers.push(layer(
+    plot.layers.push(PlotLayer::new(
         "harmonics",
         HARMONIC_COLOR,
         1.0,
         PlotGeometry::Lines(harmonics),
         marks,
     ));
-    plot.layers.push(layer(
+    plot.layers.push(PlotLayer::new(
         "spectrum",
         SPECTRUM_COLOR,
         1.5,
@@ -464,7 +448,7 @@ fn spectrum_figure(watch: &SpectrumWatch, analysis: &Analysis) -> Plot2D {
         let label = format!("{word} {f:.1} Hz");
         notes.push(format!("{label}, {:.3} {}", factor * a, watch.unit.1));
         if analysis.chatter != Some(false) {
-            plot.layers.push(layer(
+            plot.layers.push(PlotLayer::new(
                 "peak",
                 color,
                 1.5,
@@ -508,7 +492,7 @@ fn lobe_figure(
         Err(reason) => plot.x.title = format!("{} · no lobes: {reason}", plot.x.title),
     }
     curves.retain(|c| c.len() > 1);
-    plot.layers.push(layer(
+    plot.layers.push(PlotLayer::new(
         "lobes",
         LOBE_COLOR,
         2.0,
@@ -525,7 +509,7 @@ fn lobe_figure(
     };
     if rpm[2] - rpm[0] > 1.0 {
         let range = vec![vec![[rpm[0], depth], [rpm[2], depth]]];
-        plot.layers.push(layer(
+        plot.layers.push(PlotLayer::new(
             "run/speed_range",
             color,
             2.0,
@@ -534,7 +518,7 @@ fn lobe_figure(
         ));
     }
     let label = format!("this run: {:.0} rpm, {depth:.3} mm, {word}", rpm[1]);
-    plot.layers.push(layer(
+    plot.layers.push(PlotLayer::new(
         "run/operating_point",
         color,
         10.0,

@@ -102,7 +102,7 @@ fn inputs(
         let spring = joint
             .spring
             .ok_or_else(|| bad(format!("joint `{name}` has no <spring>")))?;
-        let mass = carried_mass(mechanism, joint.child);
+        let mass = mechanism.carried_mass(joint.child);
         Ok((mass, spring.stiffness, joint.damping))
     };
     let (x, y) = (mode("tool_x")?, mode("tool_y")?);
@@ -128,17 +128,6 @@ fn inputs(
         exit_angle: cut.exit_angle,
     };
     Ok((tool, geometry, cut.axial_depth))
-}
-
-/// Mass of `link` and every link below it, kg.
-fn carried_mass(mechanism: &Mechanism, link: usize) -> f64 {
-    let own = mechanism.links[link].inertial.map_or(0.0, |i| i.mass);
-    own + mechanism
-        .joints
-        .iter()
-        .filter(|j| j.parent == link)
-        .map(|j| carried_mass(mechanism, j.child))
-        .sum::<f64>()
 }
 
 /// The lobes, then the time-domain check.
@@ -567,28 +556,28 @@ impl LobeAnalysis {
         };
         let [speed, depth] = self.operating_point;
         let mut layers = vec![
-            layer(
+            PlotLayer::new(
                 "lobes",
                 [40, 90, 200],
                 2.0,
                 PlotGeometry::Lines(lobe_curves(&self.lobes)),
                 vec!["stability limit".into()],
             ),
-            layer(
+            PlotLayer::new(
                 "runs/stable",
                 [40, 170, 70],
                 5.0,
                 PlotGeometry::Points(points(false)),
                 Vec::new(),
             ),
-            layer(
+            PlotLayer::new(
                 "runs/chatter",
                 [220, 50, 40],
                 5.0,
                 PlotGeometry::Points(points(true)),
                 Vec::new(),
             ),
-            layer(
+            PlotLayer::new(
                 "operating_point",
                 [240, 170, 20],
                 9.0,
@@ -601,7 +590,7 @@ impl LobeAnalysis {
             ),
         ];
         if let Some((_, model)) = &self.from_frf {
-            layers.push(layer(
+            layers.push(PlotLayer::new(
                 "model_lobes",
                 [150, 150, 150],
                 1.5,
@@ -660,21 +649,5 @@ fn lobe_curves(lobes: &[LobePoint]) -> Vec<Vec<[f64; 2]>> {
         }
         curves.retain(|c| c.len() > 1);
         curves
-    }
-}
-
-fn layer(
-    name: &str,
-    color: [u8; 3],
-    size: f32,
-    geometry: PlotGeometry,
-    labels: Vec<String>,
-) -> PlotLayer {
-    PlotLayer {
-        name: name.into(),
-        color,
-        size,
-        geometry,
-        labels,
     }
 }

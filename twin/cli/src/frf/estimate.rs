@@ -3,6 +3,7 @@
 //! segments, and H1 = G_xy / G_xx with the coherence γ² = |G_xy|² / (G_xx·G_yy).
 
 use std::f64::consts::{PI, TAU};
+use twin::signal::fft;
 
 /// A complex number, just what the estimate needs.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -143,59 +144,9 @@ fn zero_order_hold(f: f64, period: f64) -> Complex {
     Complex::new(a.cos(), -a.sin()).scale(sinc)
 }
 
-/// In-place iterative radix-2 FFT (X_k = Σ x_n e^(−2πikn/N)); `re.len()` a power of two.
-pub fn fft(re: &mut [f64], im: &mut [f64]) {
-    let n = re.len();
-    let mut j = 0;
-    for i in 1..n {
-        let mut bit = n >> 1;
-        while j & bit != 0 {
-            j ^= bit;
-            bit >>= 1;
-        }
-        j |= bit;
-        if i < j {
-            re.swap(i, j);
-            im.swap(i, j);
-        }
-    }
-    let mut len = 2;
-    while len <= n {
-        let (ws, wc) = (-TAU / len as f64).sin_cos();
-        for start in (0..n).step_by(len) {
-            let (mut cr, mut ci) = (1.0, 0.0);
-            for k in 0..len / 2 {
-                let (a, b) = (start + k, start + k + len / 2);
-                let tr = re[b] * cr - im[b] * ci;
-                let ti = re[b] * ci + im[b] * cr;
-                (re[b], im[b]) = (re[a] - tr, im[a] - ti);
-                (re[a], im[a]) = (re[a] + tr, im[a] + ti);
-                (cr, ci) = (cr * wc - ci * ws, cr * ws + ci * wc);
-            }
-        }
-        len <<= 1;
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn fft_matches_the_direct_sum() {
-        let x: Vec<f64> = (0..16).map(|k| ((k * k) % 7) as f64 - 3.0).collect();
-        let (mut re, mut im) = (x.clone(), vec![0.0; 16]);
-        fft(&mut re, &mut im);
-        for b in 0..16 {
-            let (mut sr, mut si) = (0.0, 0.0);
-            for (k, v) in x.iter().enumerate() {
-                let a = -TAU * (b * k) as f64 / 16.0;
-                sr += v * a.cos();
-                si += v * a.sin();
-            }
-            assert!((re[b] - sr).abs() < 1e-12 && (im[b] - si).abs() < 1e-12);
-        }
-    }
 
     /// A known discrete filter y[k] = x[k] + 0.5·x[k−1] seen through H1: its response
     /// 1 + 0.5·e^(−iωT), the hold divided out, coherence 1.
