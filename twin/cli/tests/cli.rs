@@ -1,22 +1,13 @@
 //! The `twin` binary: each bad input is a one-line error naming what is wrong, a non-zero exit,
 //! and nothing half-written that looks valid.
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+mod common;
 
-fn twin(args: &[&str], cwd: &Path) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_twin"))
-        .args(args)
-        .current_dir(cwd)
-        .output()
-        .expect("twin runs")
-}
+use common::twin;
+use std::path::PathBuf;
 
 fn scratch(test: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("twin-cli-{}-{test}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
+    common::scratch("cli", test)
 }
 
 /// Runs a failing command and checks its one-line error mentions every `part`.

@@ -2,21 +2,13 @@
 //! bytes twice); every bad input a one-line error naming the argument or key, nothing on disk.
 //! FMPy's checks of the FMUs are in twin/fmu/tests/test_fmpy.py.
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+mod common;
 
-fn twin(args: &[&str], cwd: &Path) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_twin"))
-        .args(args)
-        .current_dir(cwd)
-        .output()
-        .expect("twin runs")
-}
+use common::twin;
+use std::path::PathBuf;
 
 fn scratch(test: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("twin-fmu-{}-{test}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = common::scratch("fmu", test);
     // Stands for the shared library: the packing copies its bytes.
     std::fs::write(dir.join("lib.so"), b"\x7fELF stand-in").unwrap();
     dir

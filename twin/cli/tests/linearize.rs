@@ -1,22 +1,13 @@
 //! `twin linearize`: linear.json and the table on success; every bad input a one-line error
 //! naming the argument or key, exit 1 (usage errors 2), nothing left on disk.
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+mod common;
 
-fn twin(args: &[&str], cwd: &Path) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_twin"))
-        .args(args)
-        .current_dir(cwd)
-        .output()
-        .expect("twin runs")
-}
+use common::twin;
+use std::path::PathBuf;
 
 fn scratch(test: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("twin-linearize-{}-{test}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
+    common::scratch("linearize", test)
 }
 
 /// A failing command: its exit code, one line naming every `part`, nothing written.
