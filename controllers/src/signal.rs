@@ -66,6 +66,27 @@ impl Unit {
         }
     }
 
+    /// The SI unit the twin's values of this unit are in (`m` for a signal shown in µm).
+    pub fn si_label(self) -> &'static str {
+        match self {
+            Unit::Metre | Unit::Millimetre | Unit::Micrometre => "m",
+            Unit::MetrePerSecond | Unit::MillimetrePerSecond | Unit::MicrometrePerSecond => "m/s",
+            Unit::MetrePerSecondSquared => "m/s²",
+            Unit::MillimetrePerRev => "m/rev",
+            Unit::Radian | Unit::Degree | Unit::DegreeWrapped => "rad",
+            Unit::RadianPerSecond | Unit::Rpm => "rad/s",
+            Unit::RadianPerSecondSquared => "rad/s²",
+            Unit::Newton => "N",
+            Unit::NewtonMetre => "N·m",
+            Unit::Watt | Unit::Kilowatt => "W",
+            Unit::Joule => "J",
+            Unit::NewtonSecond => "N·s",
+            Unit::Ampere => "A",
+            Unit::Second | Unit::Millisecond => "s",
+            Unit::Dimensionless => "1",
+        }
+    }
+
     /// The displayed value of an SI value.
     pub fn from_si(self, value: f64) -> f64 {
         use std::f64::consts::PI;

@@ -29,7 +29,7 @@ pub enum MachineError {
 }
 
 /// A machine built on a loaded mechanism.
-pub trait Machine {
+pub trait Machine: Send {
     /// Task-space and process signals, measured (through the sensors) by the controller,
     /// recorded, each with its display unit and plot.
     fn signals(&self) -> Vec<SignalSpec>;

@@ -9,7 +9,7 @@ use crate::linear::{self, Channel, Description, LinearModel, ModelError, Plant};
 use crate::machines::{self, Machine};
 use crate::mechanism::JointMotion;
 use crate::physics::{Load, MechanismState, ReducedDynamics};
-use controllers::{EffortKind, Unit};
+use controllers::EffortKind;
 use thiserror::Error;
 
 /// A machine signal counts as the same value to this share (of max(|value|, 1)).
@@ -187,7 +187,7 @@ impl Twin {
         let layout = &self.layout;
         let outputs = kept.iter().map(|&i| Channel {
             name: layout.signals[i].clone(),
-            unit: si_unit(layout.specs.signals[i].unit),
+            unit: layout.specs.signals[i].unit.si_label(),
         });
         (states, inputs.collect(), outputs.collect())
     }
@@ -248,25 +248,4 @@ fn measure(
     let (machine_diagnostics, _, _) = layout.split_diagnostics(&mut diagnostics);
     machine.measure(point.time, &point.state, &mut values, machine_diagnostics);
     values
-}
-
-/// The SI unit of a value shown in `unit`.
-pub(super) fn si_unit(unit: Unit) -> &'static str {
-    match unit {
-        Unit::Metre | Unit::Millimetre | Unit::Micrometre => "m",
-        Unit::MetrePerSecond | Unit::MillimetrePerSecond | Unit::MicrometrePerSecond => "m/s",
-        Unit::MetrePerSecondSquared => "m/s²",
-        Unit::MillimetrePerRev => "m/rev",
-        Unit::Radian | Unit::Degree | Unit::DegreeWrapped => "rad",
-        Unit::RadianPerSecond | Unit::Rpm => "rad/s",
-        Unit::RadianPerSecondSquared => "rad/s²",
-        Unit::Newton => "N",
-        Unit::NewtonMetre => "N·m",
-        Unit::Watt | Unit::Kilowatt => "W",
-        Unit::Joule => "J",
-        Unit::NewtonSecond => "N·s",
-        Unit::Ampere => "A",
-        Unit::Second | Unit::Millisecond => "s",
-        Unit::Dimensionless => "1",
-    }
 }

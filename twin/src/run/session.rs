@@ -200,6 +200,11 @@ impl<T: DerefMut<Target = Twin>> Session<T> {
         &self.values.signals
     }
 
+    /// The model checks now: the machine's, the loop gaps, the mechanical energy.
+    pub fn diagnostics(&self) -> &[f64] {
+        &self.values.diagnostics
+    }
+
     /// The twin being stepped.
     pub fn twin(&self) -> &Twin {
         &self.twin

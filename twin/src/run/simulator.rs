@@ -2,7 +2,6 @@
 //! time (an FMU, a control engineer's own loop). It runs the run loop's own stages
 //! ([`Session::hold`]); whole runs keep their one door, [`Twin::run_with`].
 
-use super::operating::si_unit;
 use super::session::Session;
 use super::{Divergence, Twin, TwinError};
 use crate::scenario::{LoadedScenario, Scenario};
@@ -153,7 +152,7 @@ impl Simulator {
     pub fn signal_units(&self) -> Vec<&'static str> {
         self.signal_specs()
             .iter()
-            .map(|s| si_unit(s.unit))
+            .map(|s| s.unit.si_label())
             .collect()
     }
 
@@ -176,6 +175,17 @@ impl Simulator {
     /// The plant's true signals now (SI).
     pub fn true_signals(&self) -> &[f64] {
         self.session.signals()
+    }
+
+    /// The model checks' names and units: the machine's own figures (a tool's distance from
+    /// its path, a pose), one `loop_gap/<loop>` per loop closure, and `mechanical_energy`.
+    pub fn diagnostic_specs(&self) -> &[SignalSpec] {
+        &self.session.twin().layout.specs.diagnostics
+    }
+
+    /// The model checks now (SI), in the order of [`Simulator::diagnostic_specs`].
+    pub fn diagnostics(&self) -> &[f64] {
+        self.session.diagnostics()
     }
 }
 

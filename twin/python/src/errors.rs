@@ -1,0 +1,84 @@
+//! The Python exceptions: `TwinError` and, beneath it, what went wrong where.
+
+use pyo3::create_exception;
+use pyo3::exceptions::PyException;
+use pyo3::prelude::*;
+
+create_exception!(
+    _twin,
+    TwinError,
+    PyException,
+    "Anything the twin refuses or fails at."
+);
+create_exception!(
+    _twin,
+    ScenarioError,
+    TwinError,
+    "A scenario that cannot be built: an unknown name or key, a bad value, a URDF it cannot use. \
+     The message names the file, key or element and what to change."
+);
+create_exception!(
+    _twin,
+    StepError,
+    TwinError,
+    "A step refused: efforts of the wrong length or not finite (the message names the actuator)."
+);
+create_exception!(
+    _twin,
+    DivergedError,
+    StepError,
+    "The plant diverged or crashed; attributes `step`, `time` (s), `signal`, `value`, `kind` \
+     (`diverged` or `collision`). Reset the simulator to go on."
+);
+create_exception!(
+    _twin,
+    ControllerError,
+    TwinError,
+    "A Python controller broke its protocol (`update(t, measurements) -> efforts`) or raised; \
+     the original exception is its `__cause__`."
+);
+
+/// A twin error (building, binding or running a scenario) as a Python exception: the
+/// scenario's and model files' mistakes are `ScenarioError`s.
+pub fn from_twin(error: twin::TwinError) -> PyErr {
+    match error {
+        twin::TwinError::Recording(_) | twin::TwinError::Observer(_) => {
+            TwinError::new_err(error.to_string())
+        }
+        _ => ScenarioError::new_err(error.to_string()),
+    }
+}
+
+pub fn from_scenario(error: twin::ScenarioError) -> PyErr {
+    ScenarioError::new_err(error.to_string())
+}
+
+/// A divergence as a `DivergedError` carrying its figures.
+pub fn diverged(py: Python<'_>, failure: &twin::Divergence) -> PyErr {
+    let error = DivergedError::new_err(format!("{failure}; reset the simulator to go on"));
+    let value = error.value(py);
+    let kind = match failure.kind {
+        twin::FailureKind::Diverged => "diverged",
+        twin::FailureKind::Collision => "collision",
+    };
+    let described = (|| -> PyResult<()> {
+        value.setattr("step", failure.step)?;
+        value.setattr("time", failure.time)?;
+        value.setattr("signal", failure.signal.as_str())?;
+        value.setattr("value", failure.value)?;
+        value.setattr("kind", kind)
+    })();
+    match described {
+        Ok(()) => error,
+        Err(e) => e,
+    }
+}
+
+pub fn add_to(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    let py = m.py();
+    m.add("TwinError", py.get_type::<TwinError>())?;
+    m.add("ScenarioError", py.get_type::<ScenarioError>())?;
+    m.add("StepError", py.get_type::<StepError>())?;
+    m.add("DivergedError", py.get_type::<DivergedError>())?;
+    m.add("ControllerError", py.get_type::<ControllerError>())
+}

@@ -1,0 +1,194 @@
+//! A run's result for Python: its summary as a dict and every series as NumPy arrays, sampled as
+//! the recording samples (`recording.every`).
+
+use numpy::PyArray1;
+use pyo3::prelude::*;
+use pyo3::types::{PyDict, PyList};
+use std::path::PathBuf;
+use twin::{Observer, ObserverError, SignalLayout, StepView};
+
+/// The series an observer collects, row by row, at the recording's samples.
+#[derive(Default)]
+pub struct Series {
+    layout: Option<SignalLayout>,
+    time: Vec<f64>,
+    signals: Vec<f64>,
+    measured: Vec<f64>,
+    commanded: Vec<f64>,
+    applied: Vec<f64>,
+    internals: Vec<f64>,
+    diagnostics: Vec<f64>,
+}
+
+impl Observer for Series {
+    fn start(&mut self, layout: &SignalLayout) -> Result<(), ObserverError> {
+        self.layout = Some(layout.clone());
+        Ok(())
+    }
+
+    fn observe(&mut self, view: &StepView) -> Result<(), ObserverError> {
+        if view.sampled {
+            self.time.push(view.time);
+            self.signals.extend_from_slice(view.signals);
+            self.measured.extend_from_slice(view.measured);
+            self.commanded.extend_from_slice(view.commanded);
+            self.applied.extend_from_slice(view.applied);
+            self.internals.extend_from_slice(view.internals);
+            self.diagnostics.extend_from_slice(view.diagnostics);
+        }
+        Ok(())
+    }
+}
+
+/// One column of a row-major table per name, as a dict of arrays.
+fn columns<'py>(py: Python<'py>, names: &[String], rows: &[f64]) -> PyResult<Bound<'py, PyDict>> {
+    let dict = PyDict::new(py);
+    let width = names.len();
+    for (i, name) in names.iter().enumerate() {
+        let column: Vec<f64> = rows.iter().skip(i).step_by(width.max(1)).copied().collect();
+        dict.set_item(name, PyArray1::from_vec(py, column))?;
+    }
+    Ok(dict)
+}
+
+fn units<'py>(
+    py: Python<'py>,
+    names: &[String],
+    units: impl Iterator<Item = &'static str>,
+) -> PyResult<Bound<'py, PyDict>> {
+    let dict = PyDict::new(py);
+    for (name, unit) in names.iter().zip(units) {
+        dict.set_item(name, unit)?;
+    }
+    Ok(dict)
+}
+
+/// A finished run: its summary and its series (SI units, sampled every `recording.every` steps
+/// and at the last step).
+#[pyclass(module = "twin._twin", frozen, get_all)]
+pub struct RunResult {
+    /// The summary as `twin run --summary` writes it: `scenario`, `controller`, `status`
+    /// (`ok`, `failed`, `interrupted`), `failure`, `metrics`, `steps`, `time_reached`, …
+    summary: Py<PyDict>,
+    /// The summary's metrics by name (SI unless the name says otherwise).
+    metrics: Py<PyDict>,
+    /// Why the run stopped early (a divergence or a crash), or None.
+    failure: Option<String>,
+    /// Simulated time of each sample, s.
+    time: Py<PyArray1<f64>>,
+    /// The plant's true signals by name.
+    signals: Py<PyDict>,
+    /// The signals as the controller measured them (through the sensors) by name.
+    measured: Py<PyDict>,
+    /// The efforts the controller commanded, by actuator.
+    commanded: Py<PyDict>,
+    /// The efforts the joints received (clipped to the limits, through the drives), by actuator.
+    efforts: Py<PyDict>,
+    /// The controller's internal signals by name.
+    internals: Py<PyDict>,
+    /// The model checks by name: the machine's own figures (the arm's `path_deviation`, the
+    /// platform's `path_error`), `loop_gap/<loop>`, `mechanical_energy`.
+    diagnostics: Py<PyDict>,
+    /// The SI unit of each signal (`m`, `rad/s`, …), by name.
+    units: Py<PyDict>,
+    /// The SI unit of each actuator's effort (`N` or `N·m`).
+    effort_units: Py<PyDict>,
+    /// The SI unit of each internal signal.
+    internal_units: Py<PyDict>,
+    /// The SI unit of each model check.
+    diagnostic_units: Py<PyDict>,
+    /// The recording written, or None.
+    recording: Option<PathBuf>,
+}
+
+impl RunResult {
+    pub fn new(
+        py: Python<'_>,
+        summary: &twin::RunSummary,
+        series: Series,
+        recording: Option<PathBuf>,
+    ) -> PyResult<Self> {
+        let layout = (series.layout)
+            .ok_or_else(|| crate::TwinError::new_err("the run ended before its first step"))?;
+        let specs = &layout.specs;
+        let json = twin::summary::to_json(summary);
+        let summary_dict = json_to_python(py, &json)?.cast_into::<PyDict>()?;
+        let metrics = PyDict::new(py);
+        for (name, value) in &summary.metrics {
+            metrics.set_item(name, value)?;
+        }
+        let signal_units = specs.signals.iter().map(|s| s.unit.si_label());
+        let effort_units = specs.efforts.iter().map(|u| u[1].si_label());
+        let internal_units = specs.internals.iter().map(|s| s.unit.si_label());
+        let diagnostic_units = specs.diagnostics.iter().map(|s| s.unit.si_label());
+        Ok(Self {
+            summary: summary_dict.unbind(),
+            metrics: metrics.unbind(),
+            failure: summary.failure.as_ref().map(ToString::to_string),
+            time: PyArray1::from_vec(py, series.time).unbind(),
+            signals: columns(py, &layout.signals, &series.signals)?.unbind(),
+            measured: columns(py, &layout.signals, &series.measured)?.unbind(),
+            commanded: columns(py, &layout.actuators, &series.commanded)?.unbind(),
+            efforts: columns(py, &layout.actuators, &series.applied)?.unbind(),
+            internals: columns(py, &layout.internals, &series.internals)?.unbind(),
+            diagnostics: columns(py, &layout.diagnostics, &series.diagnostics)?.unbind(),
+            units: units(py, &layout.signals, signal_units)?.unbind(),
+            effort_units: units(py, &layout.actuators, effort_units)?.unbind(),
+            internal_units: units(py, &layout.internals, internal_units)?.unbind(),
+            diagnostic_units: units(py, &layout.diagnostics, diagnostic_units)?.unbind(),
+            recording,
+        })
+    }
+}
+
+#[pymethods]
+impl RunResult {
+    /// Whether the run reached its end (no divergence, crash or interruption).
+    #[getter]
+    fn ok(&self, py: Python<'_>) -> PyResult<bool> {
+        let status = self.summary.bind(py).get_item("status")?;
+        Ok(status.is_some_and(|s| s.extract::<String>().is_ok_and(|s| s == "ok")))
+    }
+
+    fn __repr__(&self, py: Python<'_>) -> PyResult<String> {
+        let summary = self.summary.bind(py);
+        let field = |key: &str| -> PyResult<String> {
+            Ok(match summary.get_item(key)? {
+                Some(value) => value.str()?.to_string(),
+                None => String::new(),
+            })
+        };
+        Ok(format!(
+            "RunResult(scenario='{}', controller='{}', status='{}', samples={})",
+            field("scenario")?,
+            field("controller")?,
+            field("status")?,
+            self.time.bind(py).len()?
+        ))
+    }
+}
+
+/// A JSON value as the Python value `json.loads` would give.
+fn json_to_python<'py>(py: Python<'py>, value: &serde_json::Value) -> PyResult<Bound<'py, PyAny>> {
+    use serde_json::Value;
+    Ok(match value {
+        Value::Null => py.None().into_bound(py),
+        Value::Bool(b) => b.into_pyobject(py)?.to_owned().into_any(),
+        Value::Number(n) => match n.as_i64() {
+            Some(i) => i.into_pyobject(py)?.into_any(),
+            None => n.as_f64().unwrap_or(f64::NAN).into_pyobject(py)?.into_any(),
+        },
+        Value::String(s) => s.into_pyobject(py)?.into_any(),
+        Value::Array(items) => {
+            let items: PyResult<Vec<_>> = items.iter().map(|v| json_to_python(py, v)).collect();
+            PyList::new(py, items?)?.into_any()
+        }
+        Value::Object(entries) => {
+            let dict = PyDict::new(py);
+            for (key, entry) in entries {
+                dict.set_item(key, json_to_python(py, entry)?)?;
+            }
+            dict.into_any()
+        }
+    })
+}

@@ -1,0 +1,262 @@
+//! `Scenario`: a built-in or file scenario with changes, checked at each change, run whole or
+//! handed out as a simulator.
+
+use crate::controller::PythonController;
+use crate::errors::{from_scenario, from_twin};
+use crate::result::{RunResult, Series};
+use crate::simulator::Simulator;
+use controllers::Registry;
+use pyo3::exceptions::PyKeyboardInterrupt;
+use pyo3::prelude::*;
+use pyo3::types::{PyBool, PyDict, PyFloat, PyList, PyString, PyTuple};
+use std::path::PathBuf;
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::Arc;
+use twin::{LoadedScenario, Observer, ObserverError, ScenarioBuilder, StepView};
+
+/// A scenario: a built-in name (see `twin.scenarios()`) or a scenario TOML file, with changes.
+///
+/// Each change returns a new `Scenario` (the old one is kept) and is checked at once, with the
+/// same checks and messages as `twin run --set`: a bad key or value raises `ScenarioError`
+/// naming it.
+#[pyclass(module = "twin._twin", frozen)]
+#[derive(Clone)]
+pub struct Scenario {
+    builder: ScenarioBuilder,
+    /// The scenario as the changes so far make it (checked).
+    scenario: twin::Scenario,
+}
+
+impl Scenario {
+    fn checked(builder: ScenarioBuilder) -> PyResult<Self> {
+        let loaded = builder.clone().build(&Registry::builtin());
+        let scenario = loaded.map_err(from_scenario)?.scenario;
+        Ok(Self { builder, scenario })
+    }
+
+    /// The scenario with its controller, ready to be bound into a twin.
+    pub fn load(&self) -> PyResult<LoadedScenario> {
+        let built = self.builder.clone().build(&Registry::builtin());
+        built.map_err(from_scenario)
+    }
+}
+
+#[pymethods]
+impl Scenario {
+    /// Opens a built-in scenario by name or a scenario TOML file by path.
+    #[new]
+    fn new(name_or_path: PathBuf) -> PyResult<Self> {
+        let name = name_or_path.to_string_lossy();
+        Self::checked(twin::Scenario::open(&name).map_err(from_scenario)?)
+    }
+
+    /// This scenario with the dotted `key` set to `value` (bool, int, float, str, or a list or
+    /// dict of them), e.g. `set("controller.params.crank_speed", -6.0)`.
+    fn set(&self, key: &str, value: &Bound<'_, PyAny>) -> PyResult<Self> {
+        let value = toml_value(key, value)?;
+        Self::checked(
+            self.builder
+                .clone()
+                .set(key, value)
+                .map_err(from_scenario)?,
+        )
+    }
+
+    /// This scenario with another controller of the registry (see `twin.controllers()`); the
+    /// old controller's parameters are dropped.
+    fn controller(&self, name: &str) -> PyResult<Self> {
+        Self::checked(self.builder.clone().controller(name))
+    }
+
+    /// This scenario run for `seconds` of simulated time.
+    fn duration(&self, seconds: f64) -> PyResult<Self> {
+        Self::checked(self.builder.clone().duration(seconds))
+    }
+
+    /// This scenario with the sensor noise and fault draws of `seed`.
+    fn seed(&self, seed: u64) -> PyResult<Self> {
+        Self::checked(self.builder.clone().seed(seed))
+    }
+
+    /// This scenario stepped by `engine`: `"exact"` or `"rapier"`.
+    fn engine(&self, engine: &str) -> PyResult<Self> {
+        let builder = self.builder.clone().set("solver.engine", engine);
+        Self::checked(builder.map_err(from_scenario)?)
+    }
+
+    /// The scenario's name.
+    #[getter]
+    fn name(&self) -> &str {
+        &self.scenario.name
+    }
+
+    /// The machine it runs: `whitworth`, `arm`, `platform`, `feed_axis`, `lathe` or `milling`.
+    #[getter]
+    fn machine(&self) -> &str {
+        &self.scenario.machine
+    }
+
+    #[getter]
+    fn description(&self) -> &str {
+        &self.scenario.description
+    }
+
+    /// The registry name of the scenario's controller.
+    #[getter]
+    fn controller_name(&self) -> &str {
+        &self.scenario.controller.name
+    }
+
+    /// Simulated time of a run, s.
+    #[getter]
+    fn end_time(&self) -> f64 {
+        self.scenario.duration
+    }
+
+    /// The physics step, s.
+    #[getter]
+    fn dt(&self) -> f64 {
+        self.scenario.dt
+    }
+
+    /// The control period, s: how often a controller (and a simulator's step) acts.
+    #[getter]
+    fn control_period(&self) -> f64 {
+        self.scenario.control_period.unwrap_or(self.scenario.dt)
+    }
+
+    /// The plant's measured signals' names, in the order of a controller's `measurements`.
+    #[getter]
+    fn signals(&self) -> PyResult<Vec<String>> {
+        Ok(Simulator::from_scenario(self)?.signal_names())
+    }
+
+    /// The actuated joints' names, in the order of the efforts.
+    #[getter]
+    fn actuators(&self) -> PyResult<Vec<String>> {
+        Ok(Simulator::from_scenario(self)?.actuator_names())
+    }
+
+    /// The scenario's TOML after the changes.
+    #[getter]
+    fn toml(&self) -> PyResult<String> {
+        Ok(self.load()?.toml)
+    }
+
+    /// The plant without its controller, to step from Python (`Simulator`).
+    fn simulator(&self) -> PyResult<Simulator> {
+        Simulator::from_scenario(self)
+    }
+
+    /// Runs the scenario to its end and returns a `RunResult` (summary, signals as NumPy
+    /// arrays). `record`: write the Rerun recording there. `controller`: any object with
+    /// `update(t, measurements) -> efforts`, called every control period in place of the
+    /// scenario's controller (and `reset()` first, if it has one).
+    #[pyo3(signature = (record=None, controller=None))]
+    fn run(
+        &self,
+        py: Python<'_>,
+        record: Option<PathBuf>,
+        controller: Option<Py<PyAny>>,
+    ) -> PyResult<RunResult> {
+        let loaded = self.load()?;
+        let python_controller = controller.map(PythonController::new);
+        let twin = match &python_controller {
+            Some(controller) => twin::Twin::with_controller(loaded, Box::new(controller.clone())),
+            None => twin::Twin::new(loaded),
+        };
+        let controller_error = |py| python_controller.as_ref().and_then(|c| c.take_error(py));
+        let stop = Arc::new(AtomicUsize::new(0));
+        let twin = match twin {
+            Ok(twin) => twin.with_stop_flag(stop.clone()),
+            Err(error) => return Err(controller_error(py).unwrap_or_else(|| from_twin(error))),
+        };
+        let mut series = Series::default();
+        let mut interrupts = Interrupts { stop, error: None };
+        let summary =
+            py.detach(|| twin.run_with(record.as_deref(), &mut [&mut series, &mut interrupts]));
+        let summary = summary.map_err(from_twin)?;
+        if let Some(error) = interrupts.error {
+            return Err(error);
+        }
+        if let Some(error) = controller_error(py) {
+            return Err(error);
+        }
+        RunResult::new(py, &summary, series, record)
+    }
+
+    fn __repr__(&self) -> String {
+        let s = &self.scenario;
+        format!(
+            "Scenario('{}', machine='{}', controller='{}', duration={} s)",
+            s.name, s.machine, s.controller.name, s.duration
+        )
+    }
+}
+
+/// A Python value as a scenario (TOML) value; anything else is refused naming the key.
+fn toml_value(key: &str, value: &Bound<'_, PyAny>) -> PyResult<toml::Value> {
+    let refuse = || {
+        let kind = value
+            .get_type()
+            .name()
+            .map(|n| n.to_string())
+            .unwrap_or_default();
+        crate::ScenarioError::new_err(format!(
+            "{key}: a {kind} cannot be a scenario value; give a bool, int, float, str, or a list \
+             or dict of them"
+        ))
+    };
+    if value.is_instance_of::<PyBool>() {
+        return Ok(toml::Value::Boolean(value.extract()?));
+    }
+    if value.is_instance_of::<PyFloat>() {
+        return Ok(toml::Value::Float(value.extract()?));
+    }
+    if value.is_instance_of::<PyString>() {
+        return Ok(toml::Value::String(value.extract()?));
+    }
+    if value.is_instance_of::<PyList>() || value.is_instance_of::<PyTuple>() {
+        let items: PyResult<Vec<toml::Value>> = (value.try_iter()?)
+            .map(|item| toml_value(key, &item?))
+            .collect();
+        return Ok(toml::Value::Array(items?));
+    }
+    if let Ok(table) = value.cast::<PyDict>() {
+        let mut entries = toml::Table::new();
+        for (name, entry) in table.iter() {
+            let name: String = name.extract().map_err(|_| refuse())?;
+            let entry = toml_value(&format!("{key}.{name}"), &entry)?;
+            entries.insert(name, entry);
+        }
+        return Ok(toml::Value::Table(entries));
+    }
+    // Integers last: NumPy's integers are no `int` but index like one.
+    value
+        .extract::<i64>()
+        .map(toml::Value::Integer)
+        .map_err(|_| refuse())
+}
+
+/// Stops a run at Python's Ctrl-C (checked every 4096 steps): the run ends as interrupted, its
+/// recording complete up to there, and `run` raises `KeyboardInterrupt`.
+struct Interrupts {
+    stop: Arc<AtomicUsize>,
+    error: Option<PyErr>,
+}
+
+impl Observer for Interrupts {
+    fn observe(&mut self, view: &StepView) -> Result<(), ObserverError> {
+        if view.step % 4096 == 4095 && self.error.is_none() {
+            if let Err(error) = Python::attach(|py| py.check_signals()) {
+                let interrupt =
+                    Python::attach(|py| error.is_instance_of::<PyKeyboardInterrupt>(py));
+                // SIGINT's number, as the command line reports it.
+                self.stop
+                    .store(if interrupt { 2 } else { 15 }, Ordering::Relaxed);
+                self.error = Some(error);
+            }
+        }
+        Ok(())
+    }
+}

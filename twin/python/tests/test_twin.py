@@ -1,0 +1,244 @@
+"""The Python package against the twin's own runs: the command line's summary, the built-in
+controllers' recorded efforts replayed through a Python controller and through the step API, and
+every bad input against its exception. Run by scripts/test after `pip install ./twin/python`."""
+
+import json
+import math
+import os
+import signal
+import subprocess
+import threading
+
+import numpy as np
+import pytest
+
+import twin
+
+
+@pytest.fixture
+def twin_cli():
+    """The twin command line of the same checkout (scripts/test sets TWIN)."""
+    path = os.environ.get("TWIN")
+    if not path:
+        pytest.fail("set TWIN to the twin command line, e.g. target/release/twin (scripts/test does)")
+    return path
+
+
+def test_lists_the_scenarios_and_controllers():
+    assert "whitworth-crank-pi" in twin.scenarios()
+    assert len(twin.scenarios()) >= 15
+    names = {name for name, _, _ in twin.controllers()}
+    assert {"crank-pi", "p-pi", "stsmc"} <= names
+
+
+def test_a_scenario_describes_itself():
+    s = twin.Scenario("feed-axis-micromilling").duration(0.5)
+    assert (s.name, s.machine, s.controller_name) == ("feed-axis-micromilling", "feed_axis", "p-pi")
+    assert s.end_time == 0.5 and s.dt == 1e-4 and s.control_period == 1e-4
+    assert s.actuators == ["table"]
+    assert "table.position" in s.signals and "reference" in s.signals
+    assert "duration = 0.5" in s.toml
+
+
+def test_a_run_matches_the_command_line(tmp_path, twin_cli):
+    """The same scenario and --set through Python and through `twin run`: same figures, same
+    recorded series (digest), the recording written where asked."""
+    s = twin.Scenario("whitworth-crank-pi").set("controller.params.crank_speed", -6.0).duration(1.0)
+    result = s.run(record=tmp_path / "py.rrd")
+    subprocess.run(
+        [twin_cli, "run", "whitworth-crank-pi", "--set", "controller.params.crank_speed=-6.0",
+         "--duration", "1.0", "--out", str(tmp_path / "cli.rrd"),
+         "--summary", str(tmp_path / "cli.json")],
+        check=True, capture_output=True,
+    )
+    cli = json.loads((tmp_path / "cli.json").read_text())
+    assert result.ok and result.failure is None
+    assert result.summary["series_digest"] == cli["series_digest"]
+    assert result.summary["metrics"] == cli["metrics"]
+    assert (tmp_path / "py.rrd").stat().st_size > 10_000
+    assert str(result.recording) == str(tmp_path / "py.rrd")
+
+
+def test_a_result_carries_every_series_in_si():
+    s = twin.Scenario("whitworth-crank-pi").duration(0.5).set("recording.every", 1)
+    r = s.run()
+    assert len(r.time) == 501 and r.time[-1] == pytest.approx(0.5)
+    assert r.units["ram_position"] == "m" and r.units["crank.velocity"] == "rad/s"
+    assert r.effort_units == {"crank": "N·m"}
+    assert set(r.signals) == set(r.measured) == set(s.signals)
+    assert all(len(v) == 501 for v in r.signals.values())
+    # The ram stays on its stroke (a metre-scale number, not millimetres).
+    assert 0.0 < np.ptp(r.signals["ram_position"]) < 1.0
+    # The crank PI holds the crank turning at a steady speed (rad/s).
+    speed = r.signals["crank.velocity"][-100:]
+    assert abs(np.mean(speed)) > 1.0 and np.std(speed) < 0.2 * abs(np.mean(speed))
+    assert r.metrics == {k: v for k, v in r.summary["metrics"].items()}
+
+
+class Replay:
+    """A Python controller that repeats a run's commanded efforts, one per control update."""
+
+    def __init__(self, efforts):
+        self.efforts = efforts
+        self.k = 0
+        self.reset_calls = 0
+
+    def reset(self):
+        self.reset_calls += 1
+        self.k = 0
+
+    def update(self, t, measurements):
+        assert isinstance(measurements, np.ndarray) and measurements.dtype == np.float64
+        effort = self.efforts[:, self.k]
+        self.k += 1
+        return effort
+
+
+def built_in_run(name, duration):
+    s = twin.Scenario(name).duration(duration).set("recording.every", 1)
+    return s, s.run()
+
+
+@pytest.mark.parametrize("name", ["feed-axis-micromilling", "whitworth-tracking"])
+def test_a_python_controller_replaying_the_built_in_one_runs_the_same_plant(name):
+    """The built-in controller's commanded efforts, handed back by a Python controller, give the
+    plant bit for bit the same run (sensor noise included)."""
+    s, reference = built_in_run(name, 0.3)
+    efforts = np.array([reference.commanded[a] for a in s.actuators])
+    replay = Replay(efforts)
+    mine = s.run(controller=replay)
+    assert replay.reset_calls == 1
+    assert mine.summary["controller"] == "python:Replay"
+    for signal in s.signals:
+        np.testing.assert_array_equal(mine.signals[signal], reference.signals[signal])
+        np.testing.assert_array_equal(mine.measured[signal], reference.measured[signal])
+
+
+@pytest.mark.parametrize("name", ["feed-axis-micromilling", "whitworth-tracking", "lathe-turning"])
+def test_the_step_api_replaying_a_run_measures_what_the_run_measured(name):
+    s, reference = built_in_run(name, 0.2)
+    sim = s.simulator()
+    first = sim.reset()
+    every = int(round(s.control_period / s.dt))
+    np.testing.assert_array_equal(first, [reference.measured[n][0] for n in sim.signals])
+    updates = len(reference.time[::every]) - 1
+    for k in range(updates):
+        efforts = [reference.commanded[a][k * every] for a in sim.actuators]
+        measured = sim.step(np.array(efforts))
+        expected = [reference.measured[n][(k + 1) * every] for n in sim.signals]
+        np.testing.assert_array_equal(measured, expected)
+    assert sim.time == pytest.approx(updates * s.control_period)
+
+
+def test_the_simulator_describes_its_plant():
+    sim = twin.Scenario("arm-milling").simulator()
+    assert sim.actuators == ["joint_1", "joint_2"] or len(sim.actuators) >= 2
+    assert len(sim.effort_limits) == len(sim.actuators) and np.all(sim.effort_limits > 0)
+    assert set(sim.effort_units) <= {"N", "N·m"}
+    assert len(sim.units) == len(sim.signals)
+    assert sim.time == 0.0 and sim.control_period == 1e-3
+
+
+def test_reset_with_a_seed_repeats_the_sensor_noise():
+    s = twin.Scenario("whitworth-tracking").set('sensors."ram_position".noise', 1e-5)
+    sim = s.simulator()
+    def episode(seed):
+        sim.reset(seed=seed)
+        return np.array([sim.step([0.5]) for _ in range(50)])
+    a, b, c = episode(7), episode(7), episode(8)
+    np.testing.assert_array_equal(a, b)
+    assert not np.array_equal(a, c)
+
+
+# Bad input, each against its exception and message.
+
+def test_an_unknown_scenario_is_named():
+    with pytest.raises(twin.ScenarioError, match="no-such-scenario"):
+        twin.Scenario("no-such-scenario")
+
+
+def test_a_bad_value_names_its_key():
+    s = twin.Scenario("whitworth-crank-pi")
+    with pytest.raises(twin.ScenarioError, match="crank_speed"):
+        s.set("controller.params.crank_speed", "fast")
+    with pytest.raises(twin.ScenarioError, match="duration"):
+        s.duration(-1.0)
+    with pytest.raises(twin.ScenarioError, match="controller.params.gain.*object"):
+        s.set("controller.params.gain", object())
+    with pytest.raises(twin.ScenarioError, match="no-such-controller"):
+        s.controller("no-such-controller")
+    with pytest.raises(twin.ScenarioError, match="engine"):
+        s.engine("mujoco")
+    # The scenario a failed change started from is unchanged.
+    assert s.end_time == 10.0
+
+
+def test_efforts_of_the_wrong_length_or_not_finite_name_the_actuator():
+    sim = twin.Scenario("feed-axis-micromilling").simulator()
+    with pytest.raises(twin.StepError, match="2 values given for 1 actuators \\(table\\)"):
+        sim.step([1.0, 2.0])
+    with pytest.raises(twin.StepError, match="`table` is NaN"):
+        sim.step([math.nan])
+    with pytest.raises(twin.StepError, match="str"):
+        sim.step("ten")
+    assert sim.time == 0.0
+    sim.step([1.0])
+    assert sim.time == pytest.approx(1e-4)
+
+
+def test_a_divergence_raises_with_its_figures_until_a_reset():
+    s = twin.Scenario("whitworth-crank-pi").set("health.max_joint_speed", 0.5)
+    sim = s.simulator()
+    sim.reset()
+    with pytest.raises(twin.DivergedError) as failure:
+        for _ in range(1000):
+            sim.step([sim.effort_limits[0]])
+    assert failure.value.kind == "diverged" and failure.value.time > 0
+    assert "velocity" in failure.value.signal and abs(failure.value.value) > 0.5
+    with pytest.raises(twin.DivergedError):
+        sim.step([0.0])
+    sim.reset()
+    sim.step([0.0])
+
+
+class Broken:
+    def __init__(self, reply=None, fail_at=None):
+        self.reply, self.fail_at = reply, fail_at
+
+    def update(self, t, measurements):
+        if self.fail_at is not None and t >= self.fail_at:
+            raise RuntimeError("my controller broke")
+        return self.reply
+
+
+def test_a_python_controller_that_raises_stops_the_run_and_keeps_its_recording(tmp_path):
+    s = twin.Scenario("feed-axis-micromilling").duration(0.2)
+    with pytest.raises(twin.ControllerError, match="python:Broken.*my controller broke") as failure:
+        s.run(record=tmp_path / "broken.rrd", controller=Broken([0.0], fail_at=0.05))
+    assert isinstance(failure.value.__cause__, RuntimeError)
+    assert (tmp_path / "broken.rrd").stat().st_size > 1000
+
+
+def test_a_python_controller_with_a_bad_reply_is_named():
+    s = twin.Scenario("feed-axis-micromilling").duration(0.05)
+    with pytest.raises(twin.ControllerError, match="2 efforts .* 1 actuators \\(table\\)"):
+        s.run(controller=Broken([1.0, 2.0]))
+    with pytest.raises(twin.ControllerError, match="inf for actuator `table`"):
+        s.run(controller=Broken([math.inf]))
+    with pytest.raises(twin.ControllerError, match="not a sequence"):
+        s.run(controller=Broken({"table": 1.0}))
+    with pytest.raises(twin.ControllerError, match="update"):
+        s.run(controller=object())
+
+
+def test_ctrl_c_stops_a_run_and_keeps_its_recording(tmp_path):
+    # 300 s of simulated time: seconds of work, stopped after 0.3 s.
+    s = twin.Scenario("feed-axis-micromilling").duration(300.0)
+    timer = threading.Timer(0.3, lambda: os.kill(os.getpid(), signal.SIGINT))
+    timer.start()
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            s.run(record=tmp_path / "stopped.rrd")
+    finally:
+        timer.cancel()
+    assert (tmp_path / "stopped.rrd").stat().st_size > 1000
