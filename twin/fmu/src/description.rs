@@ -133,11 +133,12 @@ fn describe(simulator: &Simulator, parameters: &[Parameter], role: Role) -> Vari
         Role::Effort(a) => {
             let actuator = &simulator.actuators()[a];
             let text = format!(
-                "effort on {}, held over the step, clipped to ±{}",
+                "command to the drive of {}, held over the step, clipped to ±{}",
                 actuator.joint, actuator.effort_limit
             );
             let name = format!("effort.{}", actuator.joint);
-            (name, effort(actuator.kind).into(), text, Some("0".into()))
+            let unit = unit_name(simulator.command_units()[a]);
+            (name, unit, text, Some("0".into()))
         }
         Role::Setpoint(k) => {
             let reference = specs.iter().position(|s| s.name == SETPOINTS[k]);
@@ -180,12 +181,13 @@ fn describe(simulator: &Simulator, parameters: &[Parameter], role: Role) -> Vari
         Role::Commanded(a) => {
             let actuator = &simulator.actuators()[a];
             let text = format!(
-                "effort the controller commanded on {} at its last update (the step's start), \
-                 before the limit ±{}",
+                "command the controller gave the drive of {} at its last update (the step's \
+                 start), before the limit ±{}",
                 actuator.joint, actuator.effort_limit
             );
             let name = format!("effort.{}", actuator.joint);
-            (name, effort(actuator.kind).into(), text, None)
+            let unit = unit_name(simulator.command_units()[a]);
+            (name, unit, text, None)
         }
         Role::Internal(i) => {
             let spec = &simulator.internal_specs()[i];

@@ -272,6 +272,16 @@ impl Simulator {
             .collect()
     }
 
+    /// The SI unit of each actuator's command, in [`Simulator::actuators`]' order: N·m or N,
+    /// or what the machine's drive takes instead (the arm's current, A).
+    pub fn command_units(&self) -> Vec<&'static str> {
+        let efforts = &self.session.twin().layout.specs.efforts;
+        efforts
+            .iter()
+            .map(|[commanded, _]| si_unit(*commanded))
+            .collect()
+    }
+
     /// The controller's internal signals (names, display units, plots); none without one.
     pub fn internal_specs(&self) -> &[SignalSpec] {
         &self.session.twin().layout.specs.internals
