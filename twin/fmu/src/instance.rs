@@ -112,7 +112,7 @@ impl Instance {
             .map_err(|e| format!("{}: cannot read: {e}", file.display()))?;
         let scenario = (text, file.display().to_string(), folder);
         let simulator = load(&scenario, controlled, &[])?;
-        let parameters = parameters(&scenario.0, &simulator);
+        let parameters = parameters(&scenario.0, &simulator, controlled);
         let variables = variables(&simulator, controlled, &parameters);
         let (_, own) = model_description(&simulator, &variables, controlled);
         if guid != own {
@@ -437,7 +437,11 @@ mod tests {
         let kind = format!("controller = {controlled}\n");
         std::fs::write(dir.path().join(KIND_FILE), kind).unwrap();
         let simulator = simulator(loaded, controlled, &Registry::builtin()).unwrap();
-        let variables = variables(&simulator, controlled, &parameters(&text, &simulator));
+        let variables = variables(
+            &simulator,
+            controlled,
+            &parameters(&text, &simulator, controlled),
+        );
         let (_, guid) = model_description(&simulator, &variables, controlled);
         let uri = format!("file://{}", dir.path().display()).replace(' ', "%20");
         (dir, uri, guid)

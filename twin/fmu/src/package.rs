@@ -47,7 +47,11 @@ pub fn package(
     let (urdf_text, toml) = (loaded.urdf_text.clone(), loaded.toml.clone());
     let simulator =
         simulator(loaded, controlled, registry).map_err(|e| FmuError::Scenario(e.to_string()))?;
-    let variables = variables(&simulator, controlled, &parameters(&toml, &simulator));
+    let variables = variables(
+        &simulator,
+        controlled,
+        &parameters(&toml, &simulator, controlled),
+    );
     let (xml, guid) = model_description(&simulator, &variables, controlled);
     let id = model_identifier(&simulator.scenario().name);
     let shared = std::fs::read(library).map_err(|e| FmuError::Library {

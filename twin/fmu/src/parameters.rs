@@ -1,6 +1,7 @@
-//! The scenario's tunable values as FMU parameters: every number of its `[controller.params]`,
-//! `[reference]`, `[process]`, `[initial]`, `[plant]` and `[sensors]` tables, named by their
-//! dotted key (array entries by index), applied as `--set` assignments ([`twin::Overrides`]).
+//! The scenario's tunable values as FMU parameters: every number of its `[controller.params]`
+//! (with the controller in the loop), `[reference]`, `[process]`, `[initial]`, `[plant]` and
+//! `[sensors]` tables, named by their dotted key (array entries by index), applied as `--set`
+//! assignments ([`twin::Overrides`]).
 
 use controllers::EffortKind;
 use twin::Simulator;
@@ -60,14 +61,16 @@ pub struct Parameter {
     pub unit: Option<String>,
 }
 
-/// The parameters of the scenario (its TOML as loaded), sorted by name; `simulator` gives the
-/// units of the reference, joint and signal values.
-pub fn parameters(toml_text: &str, simulator: &Simulator) -> Vec<Parameter> {
+/// The parameters of the scenario (its TOML as loaded), sorted by name; the controller's only
+/// when it is in the loop (`controlled`). `simulator` gives the units of the reference, joint and
+/// signal values.
+pub fn parameters(toml_text: &str, simulator: &Simulator, controlled: bool) -> Vec<Parameter> {
     let Ok(table) = toml_text.parse::<toml::Table>() else {
         return Vec::new();
     };
     let mut found = Vec::new();
-    for path in TABLES {
+    let tables = (TABLES.iter().copied()).filter(|path| controlled || path[0] != "controller");
+    for path in tables {
         let mut value = Some(&table);
         for part in path {
             value = value
@@ -234,17 +237,19 @@ mod tests {
     use controllers::Registry;
     use twin::Scenario;
 
-    fn simulator(name: &str) -> (String, Simulator) {
+    /// The scenario's numbers with its controller in the loop.
+    fn found(name: &str) -> Vec<Parameter> {
         let loaded = Scenario::builtin(name)
             .and_then(|s| s.build(&Registry::builtin()))
             .unwrap();
-        (loaded.toml.clone(), Simulator::new(loaded).unwrap())
+        let toml = loaded.toml.clone();
+        let simulator = Simulator::with_controller(loaded, &Registry::builtin()).unwrap();
+        parameters(&toml, &simulator, true)
     }
 
     #[test]
     fn the_feed_axis_numbers_are_parameters_with_their_units_where_known() {
-        let (toml, simulator) = simulator("feed-axis-micromilling");
-        let found = parameters(&toml, &simulator);
+        let found = found("feed-axis-micromilling");
         let named = |name: &str| found.iter().find(|p| p.name == name).cloned();
         let gain = named("controller.params.position_gain").unwrap();
         assert_eq!((gain.default, gain.unit), (Number::Real(30.0), None));
@@ -271,8 +276,7 @@ mod tests {
 
     #[test]
     fn array_entries_are_parameters_set_as_their_whole_array() {
-        let (toml, simulator) = simulator("lathe-turning");
-        let found = parameters(&toml, &simulator);
+        let found = found("lathe-turning");
         let first = found
             .iter()
             .position(|p| p.name == "controller.params.time_constants[0]")
@@ -295,8 +299,7 @@ mod tests {
 
     #[test]
     fn tables_in_arrays_are_walked_by_index() {
-        let (toml, simulator) = simulator("platform-path");
-        let found = parameters(&toml, &simulator);
+        let found = found("platform-path");
         let radius = found
             .iter()
             .find(|p| p.name == "process.path.segments[1].radius")
