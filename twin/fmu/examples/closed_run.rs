@@ -44,8 +44,11 @@ impl Observer for Csv {
     }
 }
 
+/// `--load JOINT FROM EFFORT`: the joint, from when (s), how much (N or N·m).
+type Load = (String, f64, f64);
+
 /// The options after the three positional arguments.
-fn options(args: &[String]) -> Result<(Overrides, Option<(String, f64, f64)>), String> {
+fn options(args: &[String]) -> Result<(Overrides, Option<Load>), String> {
     let mut overrides = Overrides::default();
     let mut load = None;
     let mut rest = args.iter();

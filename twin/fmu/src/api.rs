@@ -384,7 +384,7 @@ pub extern "C" fn fmi2SetFMUstate(c: fmi2Component, state: *mut c_void) -> fmi2S
 }
 
 #[no_mangle]
-pub extern "C" fn fmi2FreeFMUstate(c: fmi2Component, state: *mut *mut c_void) -> fmi2Status {
+pub unsafe extern "C" fn fmi2FreeFMUstate(c: fmi2Component, state: *mut *mut c_void) -> fmi2Status {
     with(c, |_| {
         if !state.is_null() {
             let slot = unsafe { &mut *state };
@@ -398,7 +398,7 @@ pub extern "C" fn fmi2FreeFMUstate(c: fmi2Component, state: *mut *mut c_void) ->
 }
 
 #[no_mangle]
-pub extern "C" fn fmi2SerializedFMUstateSize(
+pub unsafe extern "C" fn fmi2SerializedFMUstateSize(
     c: fmi2Component,
     state: *mut c_void,
     size: *mut usize,
