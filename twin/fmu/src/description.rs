@@ -121,98 +121,20 @@ fn seed(simulator: &Simulator) -> Variable {
     }
 }
 
+/// A variable's name, unit (empty: none), description and start value.
+type About = (String, String, String, Option<String>);
+
 /// The variable of `role`, its value reference still to be given.
 fn describe(simulator: &Simulator, parameters: &[Parameter], role: Role) -> Variable {
-    let specs = simulator.signal_specs();
-    let units = simulator.signal_units();
-    let effort = |kind| match kind {
-        EffortKind::Torque => "N.m",
-        EffortKind::Force => "N",
-    };
     let (name, unit, description, start) = match role {
-        Role::Effort(a) => {
-            let actuator = &simulator.actuators()[a];
-            let text = format!(
-                "command to the drive of {}, held over the step, clipped to ±{}",
-                actuator.joint, actuator.effort_limit
-            );
-            let name = format!("effort.{}", actuator.joint);
-            let unit = unit_name(simulator.command_units()[a]);
-            (name, unit, text, Some("0".into()))
-        }
-        Role::Setpoint(k) => {
-            let reference = specs.iter().position(|s| s.name == SETPOINTS[k]);
-            let unit = reference.map_or(String::new(), |i| unit_name(units[i]));
-            let text = format!(
-                "added to the scenario's {} ({}) from the step's start on, held over it",
-                SETPOINTS[k],
-                reference.map_or("", |i| specs[i].plot.as_str())
-            );
-            (
-                format!("setpoint.{}", SETPOINTS[k]),
-                unit,
-                text,
-                Some("0".into()),
-            )
-        }
-        Role::Disturbance(j) => {
-            let (joint, kind) = simulator.joints()[j];
-            let text = format!(
-                "effort from outside on joint {joint}, on top of its drive, held over the step"
-            );
-            let name = format!("disturbance.{joint}");
-            (name, effort(kind).into(), text, Some("0".into()))
-        }
-        Role::Measured(i) => (
-            format!("measured.{}", specs[i].name),
-            unit_name(units[i]),
-            format!(
-                "{} as the sensors read it at the last control update",
-                specs[i].plot
-            ),
-            None,
-        ),
-        Role::True(i) => (
-            format!("true.{}", specs[i].name),
-            unit_name(units[i]),
-            format!("{}: the true value", specs[i].name),
-            None,
-        ),
-        Role::Commanded(a) => {
-            let actuator = &simulator.actuators()[a];
-            let text = format!(
-                "command the controller gave the drive of {} at its last update (the step's \
-                 start), before the limit ±{}",
-                actuator.joint, actuator.effort_limit
-            );
-            let name = format!("effort.{}", actuator.joint);
-            let unit = unit_name(simulator.command_units()[a]);
-            (name, unit, text, None)
-        }
-        Role::Internal(i) => {
-            let spec = &simulator.internal_specs()[i];
-            let text = format!(
-                "controller {}: {} at its last update (the step's start)",
-                simulator.controller(),
-                spec.plot
-            );
-            let unit = unit_name(simulator.internal_units()[i]);
-            (format!("controller.{}", spec.name), unit, text, None)
-        }
         Role::Seed => return seed(simulator),
-        Role::Parameter(p) => {
-            let parameter = &parameters[p];
-            let text = format!(
-                "scenario value {} (as --set {}), fixed at initialization",
-                parameter.name, parameter.key
-            );
-            let start = match parameter.default {
-                Number::Real(x) => format!("{x:?}"),
-                Number::Integer(i) => i.to_string(),
-            };
-            let unit = parameter.unit.clone().unwrap_or_default();
-            (parameter.name.clone(), unit, text, Some(start))
-        }
+        Role::Parameter(p) => about_parameter(&parameters[p]),
+        Role::Effort(a) => about_effort(simulator, a),
+        Role::Setpoint(k) => about_setpoint(simulator, k),
+        Role::Disturbance(j) => about_disturbance(simulator, j),
+        Role::Measured(i) | Role::True(i) => about_signal(simulator, i, role == Role::True(i)),
+        Role::Commanded(a) => about_command(simulator, a),
+        Role::Internal(i) => about_internal(simulator, i),
     };
     Variable {
         integer: matches!(role, Role::Parameter(p) if matches!(parameters[p].default, Number::Integer(_))),
@@ -223,6 +145,105 @@ fn describe(simulator: &Simulator, parameters: &[Parameter], role: Role) -> Vari
         description,
         start,
     }
+}
+
+fn about_effort(simulator: &Simulator, a: usize) -> About {
+    let actuator = &simulator.actuators()[a];
+    let text = format!(
+        "command to the drive of {}, held over the step, clipped to ±{}",
+        actuator.joint, actuator.effort_limit
+    );
+    let unit = unit_name(simulator.command_units()[a]);
+    (
+        format!("effort.{}", actuator.joint),
+        unit,
+        text,
+        Some("0".into()),
+    )
+}
+
+fn about_setpoint(simulator: &Simulator, k: usize) -> About {
+    let specs = simulator.signal_specs();
+    let reference = specs.iter().position(|s| s.name == SETPOINTS[k]);
+    let unit = reference.map_or(String::new(), |i| unit_name(simulator.signal_units()[i]));
+    let text = format!(
+        "added to the scenario's {} ({}) from the step's start on, held over it",
+        SETPOINTS[k],
+        reference.map_or("", |i| specs[i].plot.as_str())
+    );
+    (
+        format!("setpoint.{}", SETPOINTS[k]),
+        unit,
+        text,
+        Some("0".into()),
+    )
+}
+
+fn about_disturbance(simulator: &Simulator, j: usize) -> About {
+    let (joint, kind) = simulator.joints()[j];
+    let text =
+        format!("effort from outside on joint {joint}, on top of its drive, held over the step");
+    let unit = match kind {
+        EffortKind::Torque => "N.m",
+        EffortKind::Force => "N",
+    };
+    (
+        format!("disturbance.{joint}"),
+        unit.into(),
+        text,
+        Some("0".into()),
+    )
+}
+
+/// A signal as measured, or with `true_value` its true value.
+fn about_signal(simulator: &Simulator, i: usize, true_value: bool) -> About {
+    let spec = &simulator.signal_specs()[i];
+    let unit = unit_name(simulator.signal_units()[i]);
+    if true_value {
+        let text = format!("{}: the true value", spec.name);
+        (format!("true.{}", spec.name), unit, text, None)
+    } else {
+        let text = format!(
+            "{} as the sensors read it at the last control update",
+            spec.plot
+        );
+        (format!("measured.{}", spec.name), unit, text, None)
+    }
+}
+
+fn about_command(simulator: &Simulator, a: usize) -> About {
+    let actuator = &simulator.actuators()[a];
+    let text = format!(
+        "command the controller gave the drive of {} at its last update (the step's start), \
+         before the limit ±{}",
+        actuator.joint, actuator.effort_limit
+    );
+    let unit = unit_name(simulator.command_units()[a]);
+    (format!("effort.{}", actuator.joint), unit, text, None)
+}
+
+fn about_internal(simulator: &Simulator, i: usize) -> About {
+    let spec = &simulator.internal_specs()[i];
+    let text = format!(
+        "controller {}: {} at its last update (the step's start)",
+        simulator.controller(),
+        spec.plot
+    );
+    let unit = unit_name(simulator.internal_units()[i]);
+    (format!("controller.{}", spec.name), unit, text, None)
+}
+
+fn about_parameter(parameter: &Parameter) -> About {
+    let text = format!(
+        "scenario value {} (as --set {}), fixed at initialization",
+        parameter.name, parameter.key
+    );
+    let start = match parameter.default {
+        Number::Real(x) => format!("{x:?}"),
+        Number::Integer(i) => i.to_string(),
+    };
+    let unit = parameter.unit.clone().unwrap_or_default();
+    (parameter.name.clone(), unit, text, Some(start))
 }
 
 /// The C identifier of a scenario's FMU: `twin_` and its name with `-` and `.` as `_`.
