@@ -370,7 +370,10 @@ impl Instance {
             ));
         }
         let values: Vec<f64> = state.parameters.iter().map(|&n| real(n)).collect();
-        if values.len() != self.values.len() || state.inputs.len() != self.inputs.len() {
+        let fits = values.len() == self.values.len()
+            && state.inputs.len() == self.inputs.len()
+            && state.history.fits(self.inputs.len());
+        if !fits || state.seed < 0 {
             return Err("the FMU state does not fit this FMU's variables".into());
         }
         let same = state.seed == self.seed

@@ -40,6 +40,11 @@ impl History {
         }
     }
 
+    /// Whether each period holds `inputs` inputs.
+    pub fn fits(&self, inputs: usize) -> bool {
+        self.stride == inputs
+    }
+
     pub fn clear(&mut self) {
         self.counts.clear();
         self.values.clear();

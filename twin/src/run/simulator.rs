@@ -186,26 +186,7 @@ impl Simulator {
         if self.registry.is_none() {
             return Err(StepError::NoController);
         }
-        let joints = self.joints();
-        if disturbances.len() != joints.len() {
-            let names: Vec<&str> = joints.iter().map(|(name, _)| *name).collect();
-            return Err(StepError::Disturbances {
-                given: disturbances.len(),
-                expected: joints.len(),
-                names: names.join(", "),
-            });
-        }
-        let named = joints
-            .iter()
-            .map(|(joint, _)| format!("disturbance on joint `{joint}`"));
-        let offsets = ["reference", "reference_rate", "reference_acceleration"]
-            .map(|name| format!("reference offset `{name}`"));
-        let inputs = named
-            .chain(offsets)
-            .zip(disturbances.iter().chain(&reference_offset));
-        if let Some((input, &value)) = inputs.into_iter().find(|(_, v)| !v.is_finite()) {
-            return Err(StepError::NotFiniteInput { input, value });
-        }
+        self.check_inputs(disturbances, &reference_offset)?;
         if reference_offset != [0.0; 3] {
             self.reference_inputs().map_err(StepError::NoReference)?;
         }
@@ -216,6 +197,33 @@ impl Simulator {
             .session
             .close(self.step, disturbances, reference_offset);
         self.reached(reached)
+    }
+
+    /// One disturbance per movable joint and every input finite, or the error naming the input
+    /// (the names are made only then: this runs every period).
+    fn check_inputs(&self, disturbances: &[f64], offset: &[f64; 3]) -> Result<(), StepError> {
+        let joints = self.session.twin().layout.movable_joints().len();
+        if disturbances.len() != joints {
+            let names: Vec<&str> = self.joints().iter().map(|(name, _)| *name).collect();
+            return Err(StepError::Disturbances {
+                given: disturbances.len(),
+                expected: joints,
+                names: names.join(", "),
+            });
+        }
+        let inputs = disturbances.iter().chain(offset);
+        let Some(k) = inputs.clone().position(|v| !v.is_finite()) else {
+            return Ok(());
+        };
+        let input = match k.checked_sub(joints) {
+            None => format!("disturbance on joint `{}`", self.joints()[k].0),
+            Some(r) => {
+                let names = ["reference", "reference_rate", "reference_acceleration"];
+                format!("reference offset `{}`", names[r])
+            }
+        };
+        let value = inputs.copied().nth(k).unwrap_or(f64::NAN);
+        Err(StepError::NotFiniteInput { input, value })
     }
 
     /// Where a period ended: the step reached, or the failure (remembered: every later step is
