@@ -43,7 +43,8 @@ pub enum StepError {
     NoReference(&'static str),
 }
 
-/// The twin's scenario without its controller, stepped from outside.
+/// The twin's scenario stepped from outside: its plant alone ([`Simulator::new`]) or its closed
+/// loop with its controller ([`Simulator::with_controller`]).
 pub struct Simulator {
     /// The scenario as loaded, without its controller, to build the plant again on a reset.
     recipe: LoadedScenario,
