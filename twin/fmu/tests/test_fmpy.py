@@ -190,7 +190,7 @@ def simulate(fmu, duration, **options):
     outputs = [v.name for v in description.modelVariables if v.causality == "output"]
     result = simulate_fmu(str(fmu), stop_time=duration, step_size=period,
                           output_interval=period, output=outputs, **options)
-    return result, outputs, period
+    return result, outputs
 
 
 def assert_matches(result, outputs, run, first_row=0):
@@ -215,7 +215,7 @@ def assert_matches(result, outputs, run, first_row=0):
 )
 def test_the_closed_loop_matches_the_twins_own_run(scenario, duration, tmp_path):
     fmu = make_fmu(scenario, tmp_path)
-    result, outputs, _ = simulate(fmu, duration)
+    result, outputs = simulate(fmu, duration)
     run = closed_run(scenario, duration, tmp_path)
     assert_matches(result, outputs, run)
     assert np.ptp(run["measured." + ("table.position" if "feed" in scenario
@@ -228,7 +228,7 @@ def test_a_disturbance_matches_a_load_on_the_twins_own_run(tmp_path):
     at = 10 * period  # on a communication point: FMPy applies the value after the step
     signal = np.array([(0.0, 0.0), (at, 0.0), (at, load), (0.05, load)],
                       dtype=[("time", np.float64), ("disturbance.table", np.float64)])
-    result, outputs, _ = simulate(fmu, 0.05, input=signal)
+    result, outputs = simulate(fmu, 0.05, input=signal)
     run = closed_run("feed-axis-micromilling", 0.05, tmp_path, "--load", "table", str(at),
                      str(load))
     assert_matches(result, outputs, run)
@@ -241,7 +241,7 @@ def test_a_setpoint_matches_the_scenarios_own_reference_offset(tmp_path):
     offset = 2.5e-6
     signal = np.array([(0.0, offset), (0.05, offset)],
                       dtype=[("time", np.float64), ("setpoint.reference", np.float64)])
-    result, outputs, _ = simulate(fmu, 0.05, input=signal)
+    result, outputs = simulate(fmu, 0.05, input=signal)
     run = closed_run("feed-axis-micromilling", 0.05, tmp_path,
                      "--set", f"reference.offset={offset!r}")
     # The setpoint arrives with the first step: the reference at t = 0 is still the scenario's.
@@ -260,7 +260,7 @@ def summary(scenario, duration, folder, *options):
 def test_a_parameter_changes_the_result_as_the_same_set_does_in_twin_run(tmp_path):
     fmu = make_fmu("feed-axis-micromilling", tmp_path)
     gain, duration = 60.0, 0.2
-    result, outputs, _ = simulate(fmu, duration,
+    result, outputs = simulate(fmu, duration,
                                   start_values={"controller.params.position_gain": gain})
     error = np.max(np.abs(result["true.table.position"] - result["true.reference"]))
     rate = np.max(np.abs(result["true.table.velocity"] - result["true.reference_rate"]))
