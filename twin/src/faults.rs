@@ -321,6 +321,11 @@ impl FaultSet {
         })
     }
 
+    /// Whether a sensor fault acts on the plant signal at `index`.
+    pub fn reads_signal(&self, index: usize) -> bool {
+        (self.faults.iter()).any(|f| matches!(f.target, Target::Signal(i) if i == index))
+    }
+
     /// Starts and ends faults at `time`, with an event for each onset and end.
     pub fn update(&mut self, time: f64, events: &mut Vec<Event>) {
         for fault in &mut self.faults {

@@ -51,8 +51,10 @@ enum Command {
     /// Run a study: a scenario over grid and random axes, in parallel, scored against specs
     /// (`twin sweep merge` joins shard folders).
     Sweep(SweepArgs),
-    /// Package a scenario's plant (its controller left out) as an FMI 2.0 co-simulation FMU:
-    /// inputs the actuators' efforts, outputs the measured and true signals.
+    /// Package a scenario as an FMI 2.0 co-simulation FMU: its closed loop with the controller
+    /// (inputs a setpoint on the reference and disturbances on the joints), or with
+    /// --no-controller the plant alone (inputs the actuators' efforts); outputs the measured and
+    /// true signals, parameters the scenario's numbers.
     Fmu(FmuArgs),
 }
 
@@ -63,6 +65,12 @@ struct FmuArgs {
     /// Override a scenario value (as `twin run --set`); the FMU carries the scenario as set.
     #[arg(long = "set", value_name = "KEY=VALUE")]
     set: Vec<String>,
+    /// Embed this controller instead of the scenario's (its parameters start from defaults).
+    #[arg(long, value_name = "NAME", conflicts_with = "no_controller")]
+    controller: Option<String>,
+    /// The plant alone: the host is the controller (inputs the actuators' efforts).
+    #[arg(long)]
+    no_controller: bool,
     /// The .fmu file to write.
     #[arg(long, required = true)]
     out: PathBuf,
@@ -434,11 +442,11 @@ fn run(args: RunArgs, registry: &Registry) -> Result<ExitCode, Failure> {
     })
 }
 
-/// `twin linearize`: the linear model into OUT_DIR/linear.json and its table on stdout. The
-/// folder is made and its file opened before the run, so an unwritable one fails first.
-/// `twin fmu`: the scenario's plant packed as an .fmu beside the built shared library.
+/// `twin fmu`: the scenario's closed loop (or with --no-controller its plant) packed as an .fmu
+/// beside the built shared library.
 fn fmu(args: FmuArgs, registry: &Registry) -> Result<ExitCode, Failure> {
     let overrides = Overrides {
+        controller: args.controller,
         set: args.set,
         ..Overrides::default()
     };
@@ -452,11 +460,15 @@ fn fmu(args: FmuArgs, registry: &Registry) -> Result<ExitCode, Failure> {
             .with_file_name("libtwin_fmu.so"),
     };
     let file = OutputFile::create(&args.out).map_err(|e| format!("--out: {e}"))?;
-    let (bytes, packed) = twin_fmu::package(loaded, &library)?;
+    let controlled = !args.no_controller;
+    let (bytes, packed) = twin_fmu::package(loaded, controlled, registry, &library)?;
     file.commit(&bytes).map_err(|e| format!("--out: {e}"))?;
     println!(
-        "{}: FMI 2.0 co-simulation, model identifier {}, GUID {}, {:.1} MB",
+        "{}: FMI 2.0 co-simulation of the {}, model identifier {}, GUID {}, {:.1} MB",
         args.out.display(),
+        packed.controller.map_or("plant alone".into(), |c| format!(
+            "closed loop with controller {c}"
+        )),
         packed.model_identifier,
         packed.guid,
         packed.bytes as f64 / 1e6
@@ -464,6 +476,8 @@ fn fmu(args: FmuArgs, registry: &Registry) -> Result<ExitCode, Failure> {
     Ok(ExitCode::SUCCESS)
 }
 
+/// `twin linearize`: the linear model into OUT_DIR/linear.json and its table on stdout. The
+/// folder is made and its file opened before the run, so an unwritable one fails first.
 fn linearize(args: LinearizeArgs, registry: &Registry) -> Result<ExitCode, Failure> {
     let overrides = Overrides {
         set: [reproduce::engine_override(args.engine), args.set].concat(),

@@ -61,6 +61,7 @@ fn an_fmu_holds_its_description_library_and_resources_and_is_reproducible() {
             "binaries/linux64/twin_feed_axis_micromilling.so",
             "resources/scenario.toml",
             "resources/urdf/feed_axis.urdf",
+            "resources/fmu.toml",
         ]
     );
     let text = String::from_utf8_lossy(&zip);
@@ -72,7 +73,19 @@ fn an_fmu_holds_its_description_library_and_resources_and_is_reproducible() {
         .next()
         .unwrap();
     assert!(text.contains(&format!("guid=\"{guid}\"")), "{guid}");
-    assert!(text.contains("name=\"effort.table\""));
+    // The closed loop by default: a setpoint and a disturbance in, the controller's effort out.
+    assert!(
+        stdout.contains("closed loop with controller p-pi"),
+        "{stdout}"
+    );
+    assert!(text.contains("controller = true"));
+    for input in ["setpoint.reference", "disturbance.table"] {
+        assert!(
+            text.contains(&format!("name=\"{input}\" valueReference=\"")),
+            "{input}"
+        );
+    }
+    assert!(text.contains("name=\"effort.table\" valueReference=\"17\" causality=\"output\""));
     assert!(text.contains("urdf = \"urdf/feed_axis.urdf\""));
     let args = [
         "fmu",
@@ -107,6 +120,59 @@ fn an_fmu_holds_its_description_library_and_resources_and_is_reproducible() {
 }
 
 #[test]
+fn the_plant_alone_or_another_controller_is_asked_for_by_flag() {
+    let dir = scratch("kinds");
+    let made = |extra: &[&str], out: &str| {
+        let mut args = vec![
+            "fmu",
+            "whitworth-crank-pi",
+            "--library",
+            "lib.so",
+            "--out",
+            out,
+        ];
+        args.extend(extra);
+        let output = twin(&args, &dir);
+        let stdout = String::from_utf8_lossy(&output.stdout).into_owned();
+        assert!(output.status.success(), "{args:?}");
+        let text = String::from_utf8_lossy(&std::fs::read(dir.join(out)).unwrap()).into_owned();
+        (stdout, text)
+    };
+    let (stdout, plant) = made(&["--no-controller"], "plant.fmu");
+    assert!(stdout.contains("of the plant alone"), "{stdout}");
+    assert!(plant.contains("controller = false"));
+    assert!(plant.contains("name=\"effort.crank\" valueReference=\"1\" causality=\"input\""));
+    assert!(!plant.contains("disturbance."));
+    let (stdout, other) = made(&["--controller", "osmc"], "osmc.fmu");
+    assert!(
+        stdout.contains("closed loop with controller osmc"),
+        "{stdout}"
+    );
+    assert!(other.contains("name=\"controller.sigma\""));
+    assert!(other.contains("name=\"disturbance.ram\""));
+    // The scenario's own parameters are dropped with its controller, as in `twin run`.
+    assert!(!other.contains("controller.params.crank_speed"));
+    let (_, own) = made(&[], "own.fmu");
+    assert!(own.contains("name=\"controller.params.crank_speed\""));
+    let output = twin(
+        &[
+            "fmu",
+            "whitworth-crank-pi",
+            "--library",
+            "lib.so",
+            "--out",
+            "x.fmu",
+            "--controller",
+            "osmc",
+            "--no-controller",
+        ],
+        &dir,
+    );
+    assert_eq!(output.status.code(), Some(2), "a usage error");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
 fn bad_inputs_are_one_line_errors_and_leave_nothing() {
     for (test, args, parts) in [
         (
@@ -126,6 +192,11 @@ fn bad_inputs_are_one_line_errors_and_leave_nothing() {
             "out",
             vec!["--library", "lib.so", "--out", "no/such/x.fmu"],
             vec!["--out", "no/such"],
+        ),
+        (
+            "controller",
+            vec!["--library", "lib.so", "--controller", "p-pi"],
+            vec!["controller `p-pi` is written for machine `feed_axis`, not `whitworth`"],
         ),
     ] {
         let dir = scratch(test);

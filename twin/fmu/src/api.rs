@@ -1,10 +1,11 @@
 //! The 34 `fmi2*` functions of FMI 2.0 co-simulation (FMI 2.0.4 §2.1, §4.2), C ABI. Every entry
 //! catches panics (fmi2Fatal) and logs each refusal through the host's logger before returning
-//! fmi2Error; what this FMU does not support (FMU state, derivatives, asynchronous steps) is
-//! refused the same way.
+//! fmi2Error; what this FMU does not support (derivatives, asynchronous steps) is refused the
+//! same way. An FMU state (§2.1.8) is a [`State`] on the heap, owned by the host until freed.
 #![allow(non_snake_case, non_camel_case_types, clippy::missing_safety_doc)]
 
 use crate::instance::{Instance, Phase};
+use crate::state::State;
 use std::ffi::{c_char, c_int, c_void, CStr, CString};
 use std::panic::{catch_unwind, AssertUnwindSafe};
 
@@ -351,59 +352,99 @@ pub extern "C" fn fmi2SetString(
     })
 }
 
+/// The state behind a host's pointer, or why there is none.
+fn state_at<'a>(state: *mut c_void) -> Result<&'a State, String> {
+    (unsafe { (state as *const State).as_ref() }).ok_or_else(|| "null FMU state".to_string())
+}
+
+/// Hands `state` to the host at `slot`, over the state already there (FMI 2.0.4 §2.1.8: a
+/// non-null `*slot` is overwritten).
+fn give(slot: *mut *mut c_void, state: State) -> Result<(), String> {
+    if slot.is_null() {
+        return Err("null FMUstate pointer".into());
+    }
+    let slot = unsafe { &mut *slot };
+    match unsafe { (*slot as *mut State).as_mut() } {
+        Some(existing) => *existing = state,
+        None => *slot = Box::into_raw(Box::new(state)) as *mut c_void,
+    }
+    Ok(())
+}
+
+/// fmi2GetFMUstate: the parameters, seed, inputs and every period's inputs so far.
 #[no_mangle]
-pub extern "C" fn fmi2GetFMUstate(c: fmi2Component, _state: *mut *mut c_void) -> fmi2Status {
+pub extern "C" fn fmi2GetFMUstate(c: fmi2Component, state: *mut *mut c_void) -> fmi2Status {
+    with(c, |i| give(state, i.state()))
+}
+
+/// fmi2SetFMUstate: the state's periods replayed from t = 0 (exact; the twin is deterministic).
+#[no_mangle]
+pub extern "C" fn fmi2SetFMUstate(c: fmi2Component, state: *mut c_void) -> fmi2Status {
+    with(c, |i| i.set_state(state_at(state)?))
+}
+
+#[no_mangle]
+pub unsafe extern "C" fn fmi2FreeFMUstate(c: fmi2Component, state: *mut *mut c_void) -> fmi2Status {
     with(c, |_| {
-        refuse("fmi2GetFMUstate (canGetAndSetFMUstate = false)")
+        if !state.is_null() {
+            let slot = unsafe { &mut *state };
+            if !slot.is_null() {
+                drop(unsafe { Box::from_raw(*slot as *mut State) });
+                *slot = std::ptr::null_mut();
+            }
+        }
+        Ok(())
     })
 }
 
 #[no_mangle]
-pub extern "C" fn fmi2SetFMUstate(c: fmi2Component, _state: *mut c_void) -> fmi2Status {
-    with(c, |_| {
-        refuse("fmi2SetFMUstate (canGetAndSetFMUstate = false)")
-    })
-}
-
-#[no_mangle]
-pub extern "C" fn fmi2FreeFMUstate(c: fmi2Component, _state: *mut *mut c_void) -> fmi2Status {
-    with(c, |_| {
-        refuse("fmi2FreeFMUstate (canGetAndSetFMUstate = false)")
-    })
-}
-
-#[no_mangle]
-pub extern "C" fn fmi2SerializedFMUstateSize(
+pub unsafe extern "C" fn fmi2SerializedFMUstateSize(
     c: fmi2Component,
-    _state: *mut c_void,
-    _size: *mut usize,
+    state: *mut c_void,
+    size: *mut usize,
 ) -> fmi2Status {
     with(c, |_| {
-        refuse("fmi2SerializedFMUstateSize (canSerializeFMUstate = false)")
+        let bytes = state_at(state)?.to_bytes();
+        let size = unsafe { size.as_mut() }.ok_or("null size pointer")?;
+        *size = bytes.len();
+        Ok(())
     })
 }
 
 #[no_mangle]
 pub extern "C" fn fmi2SerializeFMUstate(
     c: fmi2Component,
-    _state: *mut c_void,
-    _bytes: *mut c_char,
-    _size: usize,
+    state: *mut c_void,
+    bytes: *mut c_char,
+    size: usize,
 ) -> fmi2Status {
     with(c, |_| {
-        refuse("fmi2SerializeFMUstate (canSerializeFMUstate = false)")
+        let serialized = state_at(state)?.to_bytes();
+        if serialized.len() != size || bytes.is_null() {
+            return Err(format!(
+                "the serialized FMU state is {} bytes, not {size}: ask fmi2SerializedFMUstateSize",
+                serialized.len()
+            ));
+        }
+        let out = unsafe { std::slice::from_raw_parts_mut(bytes as *mut u8, size) };
+        out.copy_from_slice(&serialized);
+        Ok(())
     })
 }
 
 #[no_mangle]
 pub extern "C" fn fmi2DeSerializeFMUstate(
     c: fmi2Component,
-    _bytes: *const c_char,
-    _size: usize,
-    _state: *mut *mut c_void,
+    bytes: *const c_char,
+    size: usize,
+    state: *mut *mut c_void,
 ) -> fmi2Status {
     with(c, |_| {
-        refuse("fmi2DeSerializeFMUstate (canSerializeFMUstate = false)")
+        if bytes.is_null() {
+            return Err("null serialized FMU state".into());
+        }
+        let serialized = unsafe { std::slice::from_raw_parts(bytes as *const u8, size) };
+        give(state, State::from_bytes(serialized)?)
     })
 }
 

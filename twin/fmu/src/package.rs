@@ -1,23 +1,38 @@
 //! The .fmu file: modelDescription.xml, the shared library under binaries/linux64/ and the
-//! scenario with its URDF under resources/, in a zip archive (stored, not compressed).
+//! scenario with its URDF and the FMU's kind under resources/, in a zip archive (stored, not
+//! compressed).
 
-use crate::description::{model_description, model_identifier};
-use crate::FmuError;
+use crate::description::{model_description, model_identifier, variables};
+use crate::parameters::parameters;
+use crate::{simulator, FmuError};
+use controllers::Registry;
 use std::path::Path;
-use twin::{LoadedScenario, Simulator};
+use twin::LoadedScenario;
 
 /// The scenario file inside resources/.
 pub const SCENARIO_FILE: &str = "scenario.toml";
 
+/// The FMU's kind inside resources/: `controller = true` when the scenario's controller is in
+/// the loop.
+pub const KIND_FILE: &str = "fmu.toml";
+
 /// What was packed.
 pub struct Packed {
     pub model_identifier: String,
+    /// The controller in the loop, `None` for the plant alone.
+    pub controller: Option<String>,
     pub guid: String,
     pub bytes: usize,
 }
 
-/// The FMU of `loaded`'s plant with `library` (the built twin-fmu shared library), as bytes.
-pub fn package(loaded: LoadedScenario, library: &Path) -> Result<(Vec<u8>, Packed), FmuError> {
+/// The FMU of `loaded`'s plant, or with `controlled` of its closed loop with its controller
+/// (built from `registry`), with `library` (the built twin-fmu shared library), as bytes.
+pub fn package(
+    loaded: LoadedScenario,
+    controlled: bool,
+    registry: &Registry,
+    library: &Path,
+) -> Result<(Vec<u8>, Packed), FmuError> {
     let urdf_name = Path::new(&loaded.urdf_source)
         .file_name()
         .and_then(|n| n.to_str())
@@ -29,9 +44,15 @@ pub fn package(loaded: LoadedScenario, library: &Path) -> Result<(Vec<u8>, Packe
     table.insert("urdf".into(), format!("urdf/{urdf_name}").into());
     let scenario_text = toml::to_string(&table)
         .map_err(|e| FmuError::Scenario(format!("{}: {e}", loaded.source)))?;
-    let urdf_text = loaded.urdf_text.clone();
-    let simulator = Simulator::new(loaded).map_err(|e| FmuError::Scenario(e.to_string()))?;
-    let (xml, guid) = model_description(&simulator);
+    let (urdf_text, toml) = (loaded.urdf_text.clone(), loaded.toml.clone());
+    let simulator =
+        simulator(loaded, controlled, registry).map_err(|e| FmuError::Scenario(e.to_string()))?;
+    let variables = variables(
+        &simulator,
+        controlled,
+        &parameters(&toml, &simulator, controlled),
+    );
+    let (xml, guid) = model_description(&simulator, &variables, controlled);
     let id = model_identifier(&simulator.scenario().name);
     let shared = std::fs::read(library).map_err(|e| FmuError::Library {
         path: library.display().to_string(),
@@ -45,9 +66,12 @@ pub fn package(loaded: LoadedScenario, library: &Path) -> Result<(Vec<u8>, Packe
         scenario_text.as_bytes(),
     );
     zip.add(&format!("resources/urdf/{urdf_name}"), urdf_text.as_bytes());
+    let kind = format!("controller = {controlled}\n");
+    zip.add(&format!("resources/{KIND_FILE}"), kind.as_bytes());
     let bytes = zip.finish();
     let packed = Packed {
         model_identifier: id,
+        controller: controlled.then(|| simulator.controller().to_string()),
         guid,
         bytes: bytes.len(),
     };

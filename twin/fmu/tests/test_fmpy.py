@@ -1,4 +1,7 @@
-"""The twin's FMUs checked by a real FMI client, FMPy 0.3.32 (scripts/test-tools installs it).
+"""The twin's FMUs checked by a real FMI client, FMPy 0.3.32 (scripts/test-tools installs it):
+the plant alone (`twin fmu --no-controller`) and the closed loop with the scenario's controller
+(`twin fmu`, the default), against the twin's own runs (`Twin::run_with` through the examples
+step_run and closed_run, and `twin run --summary`), never against the FMU itself.
 
 TWIN names the `twin` executable (default: target/release/twin beside libtwin_fmu.so);
 `cargo build --release -p twin-cli -p twin-fmu` builds both. Run:
@@ -6,6 +9,7 @@ TWIN names the `twin` executable (default: target/release/twin beside libtwin_fm
 """
 
 import ctypes
+import json
 import os
 import pathlib
 import subprocess
@@ -39,15 +43,30 @@ MACHINES = [
 
 
 def make_fmu(scenario, folder, *extra):
-    out = folder / f"{scenario}.fmu"
+    kind = "plant" if "--no-controller" in extra else "loop"
+    out = folder / f"{scenario}-{kind}.fmu"
     subprocess.run([str(TWIN), "fmu", scenario, "--out", str(out), *extra], check=True)
     return out
 
 
+def plant_fmu(scenario, folder):
+    return make_fmu(scenario, folder, "--no-controller")
+
+
 @pytest.mark.parametrize("scenario", MACHINES)
-def test_every_machine_validates(scenario, tmp_path):
-    fmu = make_fmu(scenario, tmp_path)
+@pytest.mark.parametrize("kind", [(), ("--no-controller",)], ids=["closed-loop", "plant"])
+def test_every_machine_validates(scenario, kind, tmp_path):
+    fmu = make_fmu(scenario, tmp_path, *kind)
     assert validate_fmu(str(fmu)) == []
+    variables = read_model_description(str(fmu)).modelVariables
+    names = [v.name for v in variables]
+    inputs = [v.name for v in variables if v.causality == "input"]
+    if kind:
+        assert all(name.startswith("effort.") for name in inputs) and inputs
+    else:
+        assert any(name.startswith("disturbance.") for name in inputs)
+        assert any(name.startswith("controller.") for name in names)
+        assert any(name.startswith("controller.params.") for name in names)
 
 
 def twin_run(scenario, duration, step_at, effort, folder):
@@ -69,7 +88,7 @@ def twin_run(scenario, duration, step_at, effort, folder):
     ],
 )
 def test_a_step_input_matches_the_twins_own_run(scenario, input_name, duration, effort, tmp_path):
-    fmu = make_fmu(scenario, tmp_path)
+    fmu = plant_fmu(scenario, tmp_path)
     description = read_model_description(str(fmu))
     period = float(description.defaultExperiment.stepSize)
     step_at = 10 * period  # on a communication point: FMPy applies the value after the step
@@ -127,7 +146,7 @@ class Host:
 
 
 def test_a_wrong_guid_is_refused_with_a_reason(tmp_path):
-    host = Host(make_fmu("whitworth-crank-pi", tmp_path), tmp_path, guid="{not-this-one}")
+    host = Host(plant_fmu("whitworth-crank-pi", tmp_path), tmp_path, guid="{not-this-one}")
     with pytest.raises(Exception, match="Failed to instantiate"):
         host.slave.instantiate(callbacks=host.callbacks)
     assert host.messages and host.messages[0][0] == 3
@@ -135,7 +154,7 @@ def test_a_wrong_guid_is_refused_with_a_reason(tmp_path):
 
 
 def test_a_nan_input_and_a_wrong_step_are_errors_and_the_fmu_goes_on(tmp_path):
-    host = Host(make_fmu("whitworth-crank-pi", tmp_path), tmp_path)
+    host = Host(plant_fmu("whitworth-crank-pi", tmp_path), tmp_path)
     host.start()
     crank = host.reference("effort.crank")
     with pytest.raises(FMICallException):
@@ -149,8 +168,176 @@ def test_a_nan_input_and_a_wrong_step_are_errors_and_the_fmu_goes_on(tmp_path):
     host.slave.doStep(0.0, 0.002)
     position = host.reference("true.crank.position")
     assert host.slave.getReal([position])[0] != 0.0
+    host.slave.terminate()
+    host.slave.freeInstance()
+
+
+def closed_run(scenario, duration, folder, *options):
+    """The twin's own closed-loop run (examples/closed_run.rs, through Twin::run_with)."""
+    out = folder / "closed.csv"
+    subprocess.run(
+        ["cargo", "run", "--quiet", "--release", "-p", "twin-fmu", "--example", "closed_run",
+         "--", scenario, str(duration), str(out), *options],
+        check=True, cwd=ROOT,
+    )
+    return np.genfromtxt(out, delimiter=",", names=True, deletechars="")
+
+
+def simulate(fmu, duration, **options):
+    """simulate_fmu over every output at the control period."""
+    description = read_model_description(str(fmu))
+    period = float(description.defaultExperiment.stepSize)
+    outputs = [v.name for v in description.modelVariables if v.causality == "output"]
+    result = simulate_fmu(str(fmu), stop_time=duration, step_size=period,
+                          output_interval=period, output=outputs, **options)
+    return result, outputs
+
+
+def assert_matches(result, outputs, run, first_row=0):
+    """The FMU's outputs against the run's to 1e-9 relative: the signals at the same time, the
+    controller's efforts and internals after the step that its update began."""
+    assert len(result) == len(run)
+    np.testing.assert_allclose(result["time"], run["time"], rtol=1e-12, atol=1e-15)
+    compared = 0
+    for name in outputs:
+        if name.startswith(("measured.", "true.")):
+            fmu, own = result[name][first_row:], run[name][first_row:]
+        else:
+            fmu, own = result[name][1:], run[name][:-1]
+        np.testing.assert_allclose(fmu, own, rtol=1e-9, atol=0, err_msg=name)
+        compared += 1
+    assert compared == len(run.dtype.names) - 1, "every column of the run compared"
+
+
+@pytest.mark.parametrize(
+    "scenario, duration",
+    [("feed-axis-micromilling", 0.2), ("whitworth-crank-pi", 0.5)],
+)
+def test_the_closed_loop_matches_the_twins_own_run(scenario, duration, tmp_path):
+    fmu = make_fmu(scenario, tmp_path)
+    result, outputs = simulate(fmu, duration)
+    run = closed_run(scenario, duration, tmp_path)
+    assert_matches(result, outputs, run)
+    assert np.ptp(run["measured." + ("table.position" if "feed" in scenario
+                                    else "crank.velocity")]) > 0, "the loop moved nothing"
+
+
+def test_a_disturbance_matches_a_load_on_the_twins_own_run(tmp_path):
+    fmu = make_fmu("feed-axis-micromilling", tmp_path)
+    period, load = 1e-4, 5.0
+    at = 10 * period  # on a communication point: FMPy applies the value after the step
+    signal = np.array([(0.0, 0.0), (at, 0.0), (at, load), (0.05, load)],
+                      dtype=[("time", np.float64), ("disturbance.table", np.float64)])
+    result, outputs = simulate(fmu, 0.05, input=signal)
+    run = closed_run("feed-axis-micromilling", 0.05, tmp_path, "--load", "table", str(at),
+                     str(load))
+    assert_matches(result, outputs, run)
+    plain = closed_run("feed-axis-micromilling", 0.05, tmp_path)
+    assert np.max(np.abs(run["true.table.position"] - plain["true.table.position"])) > 1e-9
+
+
+def test_a_setpoint_matches_the_scenarios_own_reference_offset(tmp_path):
+    fmu = make_fmu("feed-axis-micromilling", tmp_path)
+    offset = 2.5e-6
+    signal = np.array([(0.0, offset), (0.05, offset)],
+                      dtype=[("time", np.float64), ("setpoint.reference", np.float64)])
+    result, outputs = simulate(fmu, 0.05, input=signal)
+    run = closed_run("feed-axis-micromilling", 0.05, tmp_path,
+                     "--set", f"reference.offset={offset!r}")
+    # The setpoint arrives with the first step: the reference at t = 0 is still the scenario's.
+    assert_matches(result, outputs, run, first_row=1)
+    assert result["true.reference"][0] == 0.0 and run["true.reference"][0] == offset
+
+
+def summary(scenario, duration, folder, *options):
+    """`twin run --summary`: the figures of the twin's own run."""
+    subprocess.run([str(TWIN), "run", scenario, "--duration", str(duration), "--out",
+                    str(folder / "run.rrd"), "--summary", str(folder / "run.json"), *options],
+                   check=True, capture_output=True)
+    return json.loads((folder / "run.json").read_text())["metrics"]
+
+
+def test_a_parameter_changes_the_result_as_the_same_set_does_in_twin_run(tmp_path):
+    fmu = make_fmu("feed-axis-micromilling", tmp_path)
+    gain, duration = 60.0, 0.2
+    result, outputs = simulate(fmu, duration,
+                                  start_values={"controller.params.position_gain": gain})
+    error = np.max(np.abs(result["true.table.position"] - result["true.reference"]))
+    rate = np.max(np.abs(result["true.table.velocity"] - result["true.reference_rate"]))
+    metrics = summary("feed-axis-micromilling", duration, tmp_path,
+                      "--set", f"controller.params.position_gain={gain!r}")
+    np.testing.assert_allclose(error, metrics["position_error_max"], rtol=1e-9, atol=0)
+    np.testing.assert_allclose(rate, metrics["velocity_error_max"], rtol=1e-9, atol=0)
+    default = summary("feed-axis-micromilling", duration, tmp_path)
+    assert abs(default["position_error_max"] - metrics["position_error_max"]) > 1e-9, \
+        "the gain changed nothing"
+    run = closed_run("feed-axis-micromilling", duration, tmp_path,
+                     "--set", f"controller.params.position_gain={gain!r}")
+    assert_matches(result, outputs, run)
+
+
+def test_a_bad_parameter_is_an_error_with_the_reason_twin_run_gives(tmp_path):
+    host = Host(make_fmu("feed-axis-micromilling", tmp_path), tmp_path)
+    host.slave.instantiate(callbacks=host.callbacks)
+    mass = host.reference("controller.params.mass_estimate")
     with pytest.raises(FMICallException):
-        host.slave.getFMUstate()
-    assert "not supported" in host.messages[-1][1]
+        host.slave.setReal([mass], [-1.0])
+    status, message = host.messages[-1]
+    cli = subprocess.run([str(TWIN), "run", "feed-axis-micromilling", "--set",
+                          "controller.params.mass_estimate=-1.0"],
+                         capture_output=True, text=True, cwd=tmp_path)
+    assert cli.returncode == 1
+    reason = cli.stderr.strip().split(": ", 2)[-1]
+    assert status == 3 and message.endswith(reason), (message, reason)
+    assert reason == "controller.params.mass_estimate = -1: must be > 0"
+    assert host.slave.getReal([mass]) == [11.0], "the refused value is not kept"
+    host.slave.setupExperiment(startTime=0.0)
+    host.slave.enterInitializationMode()
+    host.slave.exitInitializationMode()
+    with pytest.raises(FMICallException):
+        host.slave.setReal([mass], [12.0])
+    assert host.messages[-1] == (
+        3, "controller.params.mass_estimate is fixed: set it before fmi2ExitInitializationMode")
+    host.slave.freeInstance()
+
+
+def outputs_of(host, steps, loads):
+    """Every Real after each of `steps` steps with the load `loads(k)` on the table, as bits."""
+    slave, period = host.slave, 1e-4
+    table = host.reference("disturbance.table")
+    references = [v.valueReference for v in host.description.modelVariables
+                  if v.type == "Real" and v.causality == "output"]
+    rows = []
+    for k in range(steps):
+        slave.setReal([table], [loads(k)])
+        slave.doStep(host.time, period)
+        host.time += period
+        rows.append(np.array(slave.getReal(references)).view(np.uint64))
+    return np.array(rows)
+
+
+def test_fmu_state_rollback_is_bit_identical(tmp_path):
+    host = Host(make_fmu("feed-axis-micromilling", tmp_path), tmp_path)
+    host.start()
+    host.time = 0.0
+    outputs_of(host, 50, lambda k: 2.0)
+    state = host.slave.getFMUstate()
+    at = host.time
+    first = outputs_of(host, 300, lambda k: -3.0 + 0.01 * k)
+    host.slave.setFMUstate(state)
+    host.time = at
+    again = outputs_of(host, 300, lambda k: -3.0 + 0.01 * k)
+    assert np.array_equal(first, again), "bit for bit"
+    # The same through a serialized state, and a state freed.
+    serialized = host.slave.serializeFMUstate(state)
+    host.slave.freeFMUstate(state)
+    restored = host.slave.deSerializeFMUstate(serialized)
+    host.slave.setFMUstate(restored)
+    host.time = at
+    assert np.array_equal(first, outputs_of(host, 300, lambda k: -3.0 + 0.01 * k))
+    with pytest.raises(FMICallException):
+        host.slave.deSerializeFMUstate(serialized[:-1])
+    assert "cut short" in host.messages[-1][1]
+    host.slave.freeFMUstate(restored)
     host.slave.terminate()
     host.slave.freeInstance()

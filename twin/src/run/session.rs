@@ -59,6 +59,12 @@ pub(super) struct Session<T: DerefMut<Target = Twin>> {
     control_every: usize,
     control_period: f64,
     record_every: usize,
+    /// Efforts from outside on the tree joints (a host's disturbances on a closed loop stepped
+    /// from outside); empty in a run.
+    disturbances: Vec<f64>,
+    /// Added to the scenario's reference triple (a host's setpoint on a closed loop); zero in a
+    /// run.
+    reference_offset: [f64; 3],
 }
 
 impl<T: DerefMut<Target = Twin>> Session<T> {
@@ -98,6 +104,8 @@ impl<T: DerefMut<Target = Twin>> Session<T> {
             control_every: scenario.control_every(),
             control_period: scenario.control_period(),
             record_every: scenario.recording.every,
+            disturbances: Vec::new(),
+            reference_offset: [0.0; 3],
             physics,
             values,
             twin,
@@ -175,6 +183,49 @@ impl<T: DerefMut<Target = Twin>> Session<T> {
     /// first failure.
     pub fn hold(&mut self, step: usize, commanded: &[f64]) -> Result<usize, Divergence> {
         self.values.commanded.copy_from_slice(commanded);
+        self.actuate(step)
+    }
+
+    /// From the control update at `step`, one control period of the twin's own loop with a
+    /// host's inputs held over it: `disturbances` (per movable joint, on top of the drives) and
+    /// `reference_offset` (on the reference triple, from `step` on, the controller's reading at
+    /// `step` included). The controller decides on what the sensors read at `step`, as in
+    /// [`Session::run`]. The step reached, or the first failure.
+    pub fn close(
+        &mut self,
+        step: usize,
+        disturbances: &[f64],
+        reference_offset: [f64; 3],
+    ) -> Result<usize, Divergence> {
+        let twin = &*self.twin;
+        self.disturbances.resize(twin.mechanism.joints.len(), 0.0);
+        for (&j, &effort) in twin.layout.movable_joints().iter().zip(disturbances) {
+            self.disturbances[j] = effort;
+        }
+        let time = step as f64 * self.dt;
+        if reference_offset != self.reference_offset {
+            self.reference_offset = reference_offset;
+            self.resense_reference(time);
+        }
+        self.decide(time);
+        self.actuate(step)
+    }
+
+    /// The reference triple at `time` sensed again with a new offset, its reading with it: exact
+    /// when no sensor or sensor fault stands between the reference and the controller (the
+    /// caller's check).
+    fn resense_reference(&mut self, time: f64) {
+        let range = self.twin.layout.reference_range();
+        let Some(reference) = self.reference_at(time) else {
+            return;
+        };
+        self.values.signals[range.clone()].copy_from_slice(&reference);
+        self.values.measured[range].copy_from_slice(&reference);
+    }
+
+    /// The commanded efforts clipped, through the actuator faults and the drives, over one
+    /// control period from `step`, each new state sensed.
+    fn actuate(&mut self, step: usize) -> Result<usize, Divergence> {
         if let Some(failure) = self.limit(step, step as f64 * self.dt) {
             return Err(failure);
         }
@@ -188,6 +239,16 @@ impl<T: DerefMut<Target = Twin>> Session<T> {
             }
         }
         Ok(step + self.control_every)
+    }
+
+    /// The controller's internal signals after its last update.
+    pub fn internals(&self) -> &[f64] {
+        &self.values.internals
+    }
+
+    /// The efforts commanded at the last control update, before the limits.
+    pub fn commanded(&self) -> &[f64] {
+        &self.values.commanded
     }
 
     /// What the sensors read at the last control update.
@@ -270,7 +331,16 @@ impl<T: DerefMut<Target = Twin>> Session<T> {
         if let (Some(path), Some(reference)) = (&scenario.reference, reference) {
             let sample = path.sample(time);
             reference.copy_from_slice(&[sample.position, sample.rate, sample.acceleration]);
+            offset(reference, self.reference_offset);
         }
+    }
+
+    /// The scenario's reference triple at `time` with the host's offset, if it has one.
+    fn reference_at(&self, time: f64) -> Option<[f64; 3]> {
+        let sample = self.twin.loaded.scenario.reference?.sample(time);
+        let mut reference = [sample.position, sample.rate, sample.acceleration];
+        offset(&mut reference, self.reference_offset);
+        Some(reference)
     }
 
     /// Crash detection on the state at `time`: an event for each pair that starts to touch;
@@ -306,6 +376,12 @@ impl<T: DerefMut<Target = Twin>> Session<T> {
     /// Through the sensors to the controller: new commanded efforts, internals and events.
     fn control(&mut self, time: f64) {
         self.read_sensors(time);
+        self.decide(time);
+    }
+
+    /// The controller on what the sensors last read: new commanded efforts, internals and
+    /// events.
+    fn decide(&mut self, time: f64) {
         let twin = &mut *self.twin;
         let values = &mut self.values;
         values.commanded.fill(0.0);
@@ -423,11 +499,26 @@ impl<T: DerefMut<Target = Twin>> Session<T> {
             values.joint_efforts[excitation.joint] +=
                 excitation.efforts.get(step).copied().unwrap_or(0.0);
         }
+        // Zero adds nothing, not even a sign (-0 + 0 is +0): a run stays bit for bit a run.
+        for (effort, &outside) in values.joint_efforts.iter_mut().zip(&self.disturbances) {
+            if outside != 0.0 {
+                *effort += outside;
+            }
+        }
         values.loads.clear();
         self.twin
             .machine
             .loads(time, &values.state, &mut values.loads);
         self.physics.step(&values.joint_efforts, &values.loads);
         self.physics.read_state(&mut values.state);
+    }
+}
+
+/// Adds a host's offset to the reference triple; a zero adds nothing, not even a sign.
+fn offset(reference: &mut [f64], by: [f64; 3]) {
+    for (value, by) in reference.iter_mut().zip(by) {
+        if by != 0.0 {
+            *value += by;
+        }
     }
 }

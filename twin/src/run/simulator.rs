@@ -1,11 +1,16 @@
 //! `Simulator`: the plant without its controller, stepped from outside one control period at a
-//! time (an FMU, a control engineer's own loop). It runs the run loop's own stages
-//! ([`Session::hold`]); whole runs keep their one door, [`Twin::run_with`].
+//! time (an FMU, a control engineer's own loop), or the twin's closed loop with its controller,
+//! stepped likewise with a host's disturbances and setpoint ([`Simulator::with_controller`]). It
+//! runs the run loop's own stages ([`Session::hold`], [`Session::close`]); whole runs keep their
+//! one door, [`Twin::run_with`].
 
 use super::session::Session;
 use super::{Divergence, Twin, TwinError};
 use crate::scenario::{LoadedScenario, Scenario};
-use controllers::{Actuator, Controller, ControllerError, Measurement, PlantInterface, SignalSpec};
+use controllers::{
+    Actuator, Controller, ControllerError, EffortKind, Measurement, PlantInterface, Registry,
+    SignalSpec,
+};
 use thiserror::Error;
 
 /// Why a step was refused or failed.
@@ -21,9 +26,24 @@ pub enum StepError {
     NotFinite { actuator: String, value: f64 },
     #[error("the plant diverged at step {} (t = {} s): {} = {}; reset it", .0.step, .0.time, .0.signal, .0.value)]
     Diverged(Divergence),
+    #[error("disturbances: {given} values given for {expected} joints ({names}); give one per joint in that order")]
+    Disturbances {
+        given: usize,
+        expected: usize,
+        names: String,
+    },
+    #[error("{input} is {value}: must be a finite number")]
+    NotFiniteInput { input: String, value: f64 },
+    #[error("the simulator runs its controller `{0}`, which commands the efforts; step it with step_closed_loop")]
+    ControllerInLoop(String),
+    #[error("the simulator has no controller (Simulator::new); step it with step(efforts), or make it with Simulator::with_controller")]
+    NoController,
+    #[error("reference offset: {0}; leave it at zero")]
+    NoReference(&'static str),
 }
 
-/// The twin's scenario without its controller, stepped from outside.
+/// The twin's scenario stepped from outside: its plant alone ([`Simulator::new`]) or its closed
+/// loop with its controller ([`Simulator::with_controller`]).
 pub struct Simulator {
     /// The scenario as loaded, without its controller, to build the plant again on a reset.
     recipe: LoadedScenario,
@@ -31,6 +51,9 @@ pub struct Simulator {
     /// The physics step reached (a control update).
     step: usize,
     failure: Option<Divergence>,
+    /// The registry the scenario's controller is built from on every (re)start, when the
+    /// controller is in the loop.
+    registry: Option<Registry>,
 }
 
 /// The controller slot of a twin stepped from outside: its efforts come with each step.
@@ -51,33 +74,58 @@ impl Controller for Outside {
 impl Simulator {
     /// The scenario's plant at its start (t = 0, the scenario's seed), its controller left out.
     pub fn new(loaded: LoadedScenario) -> Result<Self, TwinError> {
+        Self::start(loaded, None)
+    }
+
+    /// The scenario's closed loop at its start: its controller (`[controller]`, built from
+    /// `registry` afresh on every reset, as a run builds it) in the loop, stepped with
+    /// [`Simulator::step_closed_loop`].
+    pub fn with_controller(loaded: LoadedScenario, registry: &Registry) -> Result<Self, TwinError> {
+        Self::start(loaded, Some(registry.clone()))
+    }
+
+    fn start(loaded: LoadedScenario, registry: Option<Registry>) -> Result<Self, TwinError> {
         let recipe = LoadedScenario {
             controller: Box::new(Outside),
             ..loaded
         };
         let seed = recipe.scenario.seed;
-        let (session, failure) = Self::build(&recipe, seed)?;
+        let (session, failure) = Self::build(&recipe, seed, registry.as_ref())?;
         Ok(Self {
             recipe,
             session,
             step: 0,
             failure,
+            registry,
         })
     }
 
     fn build(
         recipe: &LoadedScenario,
         seed: u64,
+        registry: Option<&Registry>,
     ) -> Result<(Session<Box<Twin>>, Option<Divergence>), TwinError> {
         let mut scenario = recipe.scenario.clone();
         scenario.seed = seed;
+        let controller: Box<dyn Controller> = match registry {
+            None => Box::new(Outside),
+            Some(registry) => {
+                let spec = &scenario.controller;
+                (registry.build(&spec.name, &scenario.machine, &spec.params)).map_err(|source| {
+                    TwinError::Controller {
+                        context: recipe.source.clone(),
+                        source,
+                    }
+                })?
+            }
+        };
         let loaded = LoadedScenario {
             scenario,
             toml: recipe.toml.clone(),
             source: recipe.source.clone(),
             urdf_text: recipe.urdf_text.clone(),
             urdf_source: recipe.urdf_source.clone(),
-            controller: Box::new(Outside),
+            controller,
         };
         let mut session = Session::new(Box::new(Twin::new(loaded)?));
         let failure = session.begin()?;
@@ -86,7 +134,7 @@ impl Simulator {
 
     /// Back to t = 0 with the sensor noise and fault draws of `seed`.
     pub fn reset(&mut self, seed: u64) -> Result<(), TwinError> {
-        let (session, failure) = Self::build(&self.recipe, seed)?;
+        let (session, failure) = Self::build(&self.recipe, seed, self.registry.as_ref())?;
         (self.session, self.step, self.failure) = (session, 0, failure);
         Ok(())
     }
@@ -95,6 +143,9 @@ impl Simulator {
     /// SI: N or N·m) held, clipped to the actuators' limits as in a run; the measured signals
     /// at its end. After a divergence every step is refused until a reset.
     pub fn step(&mut self, efforts: &[f64]) -> Result<&[f64], StepError> {
+        if self.registry.is_some() {
+            return Err(StepError::ControllerInLoop(self.controller().into()));
+        }
         let actuators = self.actuators();
         if efforts.len() != actuators.len() {
             return Err(StepError::Length {
@@ -116,7 +167,69 @@ impl Simulator {
         if let Some(failure) = &self.failure {
             return Err(StepError::Diverged(failure.clone()));
         }
-        match self.session.hold(self.step, efforts) {
+        let reached = self.session.hold(self.step, efforts);
+        self.reached(reached)
+    }
+
+    /// One control period of the twin's own loop (a simulator made with
+    /// [`Simulator::with_controller`]): the controller updates on what the sensors read now, its
+    /// efforts go through the limits and drives; `disturbances` (one per movable joint, in
+    /// [`Simulator::joints`]' order, N or N·m) act on the joints on top of them, unseen by the
+    /// controller (a load), and `reference_offset` (position, rate, acceleration, the reference's
+    /// SI units) is added to the scenario's `[reference]` from now on, the controller's reading
+    /// now included. Both are held over the period. The measured signals at its end.
+    pub fn step_closed_loop(
+        &mut self,
+        disturbances: &[f64],
+        reference_offset: [f64; 3],
+    ) -> Result<&[f64], StepError> {
+        if self.registry.is_none() {
+            return Err(StepError::NoController);
+        }
+        self.check_inputs(disturbances, &reference_offset)?;
+        if reference_offset != [0.0; 3] {
+            self.reference_inputs().map_err(StepError::NoReference)?;
+        }
+        if let Some(failure) = &self.failure {
+            return Err(StepError::Diverged(failure.clone()));
+        }
+        let reached = self
+            .session
+            .close(self.step, disturbances, reference_offset);
+        self.reached(reached)
+    }
+
+    /// One disturbance per movable joint and every input finite, or the error naming the input
+    /// (the names are made only then: this runs every period).
+    fn check_inputs(&self, disturbances: &[f64], offset: &[f64; 3]) -> Result<(), StepError> {
+        let joints = self.session.twin().layout.movable_joints().len();
+        if disturbances.len() != joints {
+            let names: Vec<&str> = self.joints().iter().map(|(name, _)| *name).collect();
+            return Err(StepError::Disturbances {
+                given: disturbances.len(),
+                expected: joints,
+                names: names.join(", "),
+            });
+        }
+        let inputs = disturbances.iter().chain(offset);
+        let Some(k) = inputs.clone().position(|v| !v.is_finite()) else {
+            return Ok(());
+        };
+        let input = match k.checked_sub(joints) {
+            None => format!("disturbance on joint `{}`", self.joints()[k].0),
+            Some(r) => {
+                let names = ["reference", "reference_rate", "reference_acceleration"];
+                format!("reference offset `{}`", names[r])
+            }
+        };
+        let value = inputs.copied().nth(k).unwrap_or(f64::NAN);
+        Err(StepError::NotFiniteInput { input, value })
+    }
+
+    /// Where a period ended: the step reached, or the failure (remembered: every later step is
+    /// refused until a reset).
+    fn reached(&mut self, reached: Result<usize, Divergence>) -> Result<&[f64], StepError> {
+        match reached {
             Ok(step) => self.step = step,
             Err(failure) => {
                 self.step = failure.step;
@@ -125,6 +238,80 @@ impl Simulator {
             }
         }
         Ok(self.session.measured())
+    }
+
+    /// Whether a reference offset can reach the controller exactly: the scenario has a
+    /// `[reference]` and no sensor or sensor fault stands between it and the controller; else
+    /// why not.
+    pub fn reference_inputs(&self) -> Result<(), &'static str> {
+        let twin = self.session.twin();
+        let range = twin.layout.reference_range();
+        if range.is_empty() {
+            return Err("the scenario has no [reference] to offset");
+        }
+        if range
+            .clone()
+            .any(|i| twin.sensors[i].is_some() || twin.faults.reads_signal(i))
+        {
+            return Err("a sensor or sensor fault stands on the scenario's reference");
+        }
+        Ok(())
+    }
+
+    /// The controller in the loop (`outside` for the plant alone).
+    pub fn controller(&self) -> &str {
+        self.session.twin().loaded.controller.name()
+    }
+
+    /// The movable joints, in the order of [`Simulator::step_closed_loop`]'s disturbances, each
+    /// with the effort it takes (a force on a prismatic joint, else a torque).
+    pub fn joints(&self) -> Vec<(&str, EffortKind)> {
+        let twin = self.session.twin();
+        let joints = twin.layout.movable_joints().iter();
+        joints
+            .map(|&j| {
+                let joint = &twin.mechanism.joints[j];
+                let kind = match joint.motion {
+                    crate::mechanism::JointMotion::Prismatic { .. } => EffortKind::Force,
+                    _ => EffortKind::Torque,
+                };
+                (joint.name.as_str(), kind)
+            })
+            .collect()
+    }
+
+    /// The SI unit of each actuator's command, in [`Simulator::actuators`]' order: N·m or N,
+    /// or what the machine's drive takes instead (the arm's current, A).
+    pub fn command_units(&self) -> Vec<&'static str> {
+        let efforts = &self.session.twin().layout.specs.efforts;
+        efforts
+            .iter()
+            .map(|[commanded, _]| si_unit(*commanded))
+            .collect()
+    }
+
+    /// The controller's internal signals (names, display units, plots); none without one.
+    pub fn internal_specs(&self) -> &[SignalSpec] {
+        &self.session.twin().layout.specs.internals
+    }
+
+    /// The SI unit of each internal signal's values.
+    pub fn internal_units(&self) -> Vec<&'static str> {
+        self.internal_specs()
+            .iter()
+            .map(|s| si_unit(s.unit))
+            .collect()
+    }
+
+    /// The controller's internal signals after its last update (SI).
+    pub fn internals(&self) -> &[f64] {
+        self.session.internals()
+    }
+
+    /// The efforts the controller commanded at its last update, before the limits (SI; with
+    /// the plant alone, those last given to [`Simulator::step`]).
+    pub fn commanded(&self) -> &[f64] {
+        self.session.commanded()
     }
 
     /// The simulated time, s.
