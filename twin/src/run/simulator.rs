@@ -286,7 +286,7 @@ impl Simulator {
         let efforts = &self.session.twin().layout.specs.efforts;
         efforts
             .iter()
-            .map(|[commanded, _]| si_unit(*commanded))
+            .map(|[commanded, _]| commanded.si_label())
             .collect()
     }
 
@@ -299,7 +299,7 @@ impl Simulator {
     pub fn internal_units(&self) -> Vec<&'static str> {
         self.internal_specs()
             .iter()
-            .map(|s| si_unit(s.unit))
+            .map(|s| s.unit.si_label())
             .collect()
     }
 
