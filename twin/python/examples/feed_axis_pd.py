@@ -34,22 +34,28 @@ class FeedAxisPD:
         return [force]  # N, on the table's joint
 
 
-def main():
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--duration", type=float, default=25.0, help="simulated time, s")
-    args = parser.parse_args()
-    scenario = twin.Scenario("feed-axis-micromilling").duration(args.duration)
+def compare(duration):
+    """Each controller's largest and σ position error (m) and largest force (N) over `duration`."""
+    scenario = twin.Scenario("feed-axis-micromilling").duration(duration)
     runs = {
         "P-PI (built in)": scenario.run(),
         "PD (Python)": scenario.run(controller=FeedAxisPD(scenario.signals)),
     }
+    return {
+        label: (r.metrics["position_error_max"], r.metrics["position_error_sigma"],
+                abs(r.efforts["table"]).max())
+        for label, r in runs.items()
+    }
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--duration", type=float, default=25.0, help="simulated time, s")
+    args = parser.parse_args()
     print(f"feed axis, 1 µm sine at 3 rad/s under the cut, {args.duration:g} s:")
     print(f"{'controller':<18} {'max |e| µm':>11} {'σ(e) µm':>9} {'max |F| mN':>11}")
-    for label, result in runs.items():
-        m = result.metrics
-        peak_force = abs(result.efforts["table"]).max()
-        print(f"{label:<18} {m['position_error_max'] * 1e6:>11.4f} "
-              f"{m['position_error_sigma'] * 1e6:>9.4f} {peak_force * 1e3:>11.3f}")
+    for label, (peak, sigma, force) in compare(args.duration).items():
+        print(f"{label:<18} {peak * 1e6:>11.4f} {sigma * 1e6:>9.4f} {force * 1e3:>11.3f}")
 
 
 if __name__ == "__main__":

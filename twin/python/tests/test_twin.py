@@ -5,9 +5,11 @@ every bad input against its exception. Run by scripts/test after `pip install ./
 import json
 import math
 import os
+import runpy
 import signal
 import subprocess
 import threading
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -242,3 +244,27 @@ def test_ctrl_c_stops_a_run_and_keeps_its_recording(tmp_path):
     finally:
         timer.cancel()
     assert (tmp_path / "stopped.rrd").stat().st_size > 1000
+
+
+def test_the_readme_example_pd_in_python_against_the_built_in_p_pi():
+    """README's worked example (twin/python/examples/feed_axis_pd.py) over the paper's 25 s."""
+    example = runpy.run_path(str(Path(__file__).parents[1] / "examples" / "feed_axis_pd.py"))
+    figures = example["compare"](25.0)
+    p_pi, pd = figures["P-PI (built in)"], figures["PD (Python)"]
+    # The built-in P-PI keeps its Table I σ (README, model notes: 0.0325 µm).
+    assert p_pi[1] == pytest.approx(0.0325e-6, rel=0.01)
+    # Poles at 2π·50 Hz with the reference fed forward: a far smaller error for more force.
+    assert pd[0] < p_pi[0] / 10 and pd[1] < p_pi[1] / 10 and pd[2] > p_pi[2]
+
+
+def test_the_readme_python_example_runs(tmp_path, monkeypatch):
+    """The README's block of the three ways in runs as written."""
+    readme = (Path(__file__).parents[3] / "README.md").read_text()
+    section = readme.split("### From Python", 1)[1].split("### From FMI tools", 1)[0]
+    code = section.split("```python\n", 1)[1].split("```", 1)[0]
+    monkeypatch.chdir(tmp_path)
+    scope = {}
+    exec(compile(code, "README.md", "exec"), scope)
+    assert scope["r"].ok and scope["r"].summary["controller"] == "python:Hold"
+    assert (tmp_path / "crank.rrd").stat().st_size > 10_000
+    assert scope["sim"].time == pytest.approx(1.0)
