@@ -40,12 +40,12 @@ pub use scenario::{
 };
 pub use sensors::Noise;
 
-/// A run's summary as a table for people and JSON for scripts.
 /// Signal processing the twin's own spectra use, for applications that analyse signals alike.
 pub mod signal {
     pub use crate::spectrum::fft;
 }
 
+/// A run's summary as a table for people and JSON for scripts.
 pub mod summary {
     pub use crate::run::{to_json, to_table, write_json};
 }
