@@ -1,6 +1,7 @@
 """Type hints of the compiled module (twin/python/src)."""
 
 import os
+import pathlib
 from typing import Any, Protocol, Sequence, Union
 
 import numpy as np
@@ -108,6 +109,6 @@ class RunResult:
     effort_units: dict[str, str]
     internal_units: dict[str, str]
     diagnostic_units: dict[str, str]
-    recording: Union[str, None]
+    recording: Union[pathlib.Path, None]
     @property
     def ok(self) -> bool: ...
