@@ -31,18 +31,23 @@ fn entries(zip: &[u8]) -> Vec<String> {
         .collect()
 }
 
-#[test]
-fn an_fmu_holds_its_description_library_and_resources_and_is_reproducible() {
-    let dir = scratch("ok");
+/// `twin fmu feed-axis-micromilling --out OUT` with a stand-in library and `extra` arguments.
+fn feed_axis_fmu(dir: &std::path::Path, out: &str, extra: &[&str]) -> std::process::Output {
     let args = [
         "fmu",
         "feed-axis-micromilling",
         "--out",
-        "a.fmu",
+        out,
         "--library",
         "lib.so",
     ];
-    let output = twin(&args, &dir);
+    twin(&[&args[..], extra].concat(), dir)
+}
+
+#[test]
+fn an_fmu_holds_its_description_library_and_resources_and_is_reproducible() {
+    let dir = scratch("ok");
+    let output = feed_axis_fmu(&dir, "a.fmu", &[]);
     let stdout = String::from_utf8_lossy(&output.stdout);
     assert!(
         output.status.success(),
@@ -87,31 +92,15 @@ fn an_fmu_holds_its_description_library_and_resources_and_is_reproducible() {
     }
     assert!(text.contains("name=\"effort.table\" valueReference=\"17\" causality=\"output\""));
     assert!(text.contains("urdf = \"urdf/feed_axis.urdf\""));
-    let args = [
-        "fmu",
-        "feed-axis-micromilling",
-        "--out",
-        "b.fmu",
-        "--library",
-        "lib.so",
-    ];
-    assert!(twin(&args, &dir).status.success());
+    assert!(feed_axis_fmu(&dir, "b.fmu", &[]).status.success());
     assert_eq!(
         zip,
         std::fs::read(dir.join("b.fmu")).unwrap(),
         "same inputs, same bytes"
     );
-    let args = [
-        "fmu",
-        "feed-axis-micromilling",
-        "--out",
-        "c.fmu",
-        "--library",
-        "lib.so",
-        "--set",
-        "seed=7",
-    ];
-    assert!(twin(&args, &dir).status.success());
+    assert!(feed_axis_fmu(&dir, "c.fmu", &["--set", "seed=7"])
+        .status
+        .success());
     let other = String::from_utf8_lossy(&std::fs::read(dir.join("c.fmu")).unwrap()).into_owned();
     assert!(
         other.contains("<Integer start=\"7\"/>") && !other.contains(&format!("guid=\"{guid}\""))
