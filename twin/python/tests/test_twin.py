@@ -171,6 +171,11 @@ def test_a_bad_value_names_its_key():
         s.controller("no-such-controller")
     with pytest.raises(twin.ScenarioError, match="engine"):
         s.engine("mujoco")
+    with pytest.raises(twin.ScenarioError, match="no_such_gain"):
+        s.set("controller.params.no_such_gain", 1.0)
+    # The machine's own tables are checked at the change too, not first at the run.
+    with pytest.raises(twin.ScenarioError, match="process.*`nothing`"):
+        s.set("process.nothing", 1.0)
     # The scenario a failed change started from is unchanged.
     assert s.end_time == 10.0
 
