@@ -95,14 +95,24 @@ fn an_impulse_response_has_unit_coherence_and_the_static_compliance() {
 }
 
 fn lobes(frf: Option<[PathBuf; 2]>) -> twin_cli::analysis::milling::LobeAnalysis {
+    lobes_checked(frf, 21, [0, 0])
+}
+
+/// The lobes at `speed_count` speeds over 10,000–25,000 rpm, with `check` = [speeds, depths]
+/// time-domain runs.
+fn lobes_checked(
+    frf: Option<[PathBuf; 2]>,
+    speed_count: usize,
+    check: [usize; 2],
+) -> twin_cli::analysis::milling::LobeAnalysis {
     let rpm = |n: f64| n * TAU / 60.0;
     analyze(
         &LobeRequest {
             scenario: twin::Scenario::builtin(SCENARIO).unwrap(),
             speeds: [rpm(10_000.0), rpm(25_000.0)],
-            speed_count: 21,
+            speed_count,
             max_depth: 3e-3,
-            check: [0, 0],
+            check,
             check_duration: 0.4,
             frf,
         },
@@ -130,6 +140,32 @@ fn lobes_from_the_tap_tests_frfs_agree_with_the_models() {
     let (_, reference) = from_frf.from_frf.as_ref().unwrap();
     assert_eq!(&model.lobes, reference);
     assert!(from_frf.lobes.iter().all(|p| p.boundary.is_some()));
+    // Without time-domain runs there is no check.csv to write.
+    let written = from_frf.write(&dir.as_path().join("no-check")).unwrap();
+    let names: Vec<_> = written.iter().map(|p| p.file_name().unwrap()).collect();
+    assert_eq!(names, ["lobes.csv", "frf-vs-model.csv", "lobes.rrd"]);
+    // The twin's runs of the scenario's tool judge the lobes of its measured responses: a
+    // stable and a chattering depth at 10,000 rpm, against the FRF lobes' limit there, which is
+    // the model's to 2 %.
+    let checked = lobes_checked(Some([files[0].clone(), files[1].clone()]), 2, [1, 2]);
+    assert_eq!(checked.checks.len(), 2);
+    for c in &checked.checks {
+        let point = model
+            .lobes
+            .iter()
+            .find(|p| p.spindle_speed == c.speed)
+            .unwrap();
+        let model_limit = point.boundary.map_or(f64::INFINITY, |b| b.depth);
+        assert!(
+            (c.limit / model_limit - 1.0).abs() < 0.02,
+            "{} vs {model_limit}",
+            c.limit
+        );
+    }
+    let (agree, judged) = checked.agreement();
+    assert_eq!((agree, judged), (2, 2), "{}", checked.summary());
+    let written = checked.write(&dir.as_path().join("checked")).unwrap();
+    assert!(written.iter().any(|p| p.ends_with("check.csv")));
 }
 
 fn error(args: &FrfArgs) -> String {

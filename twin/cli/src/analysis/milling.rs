@@ -156,11 +156,9 @@ pub fn analyze(request: &LobeRequest, registry: &Registry) -> Result<LobeAnalysi
         None => (model_tool, None),
     };
     let lobes = diagram(&tool)?;
-    // The check judges the scenario's own tool: with FRFs, their lobes are compared with it.
-    let checks = match from_frf {
-        Some(_) => Vec::new(),
-        None => check(request, registry, (&tool, &cut, &sd))?,
-    };
+    // The runs are of the scenario's own tool; with FRFs they judge the lobes of its measured
+    // response, as a tap test's lobes are judged by test cuts.
+    let checks = check(request, registry, (&tool, &cut, &sd))?;
     let speed = loaded
         .scenario
         .initial
@@ -410,7 +408,7 @@ impl LobeAnalysis {
             speed * RPM,
             depth * 1e3
         );
-        if self.from_frf.is_some() {
+        if self.checks.is_empty() {
             return out;
         }
         let _ = writeln!(out, "check (time-domain runs vs lobes):\n  speed rpm  depth mm  limit mm  runs     lobes    step early/late nm");
@@ -484,10 +482,30 @@ impl LobeAnalysis {
             .max_by(|a, b| a.0.total_cmp(&b.0))
     }
 
-    /// Writes `lobes.csv`, `check.csv` and `lobes.rrd` into `dir` (with FRFs also
-    /// `frf-vs-model.csv`: both lobes per speed).
+    /// Writes `lobes.csv` and `lobes.rrd` into `dir`, `check.csv` when time-domain runs were
+    /// made, and with FRFs `frf-vs-model.csv` (both lobes per speed).
     pub fn write(&self, dir: &Path) -> Result<Vec<PathBuf>, AnalysisError> {
         create_dir(dir)?;
+        let mut texts = vec![("lobes.csv", self.lobes_csv())];
+        if !self.checks.is_empty() {
+            texts.push(("check.csv", self.check_csv()));
+        }
+        if let Some(text) = self.frf_csv() {
+            texts.push(("frf-vs-model.csv", text));
+        }
+        let mut written = Vec::new();
+        for (name, text) in texts {
+            let path = dir.join(name);
+            write_text(&path, &text)?;
+            written.push(path);
+        }
+        let plot = dir.join("lobes.rrd");
+        write_plot(&plot, &self.plot())?;
+        written.push(plot);
+        Ok(written)
+    }
+
+    fn lobes_csv(&self) -> String {
         let mut lobes = String::from("spindle_speed_rpm,limiting_depth_m,chatter_frequency_hz\n");
         for p in &self.lobes {
             let (depth, frequency) = p.boundary.map_or((f64::INFINITY, f64::NAN), |b| {
@@ -495,6 +513,10 @@ impl LobeAnalysis {
             });
             let _ = writeln!(lobes, "{},{depth},{frequency}", p.spindle_speed * RPM);
         }
+        lobes
+    }
+
+    fn check_csv(&self) -> String {
         let mut check = String::from(
             "spindle_speed_rpm,axial_depth_m,limiting_depth_m,run_chatter,lobes_chatter,judged,step_early_m,step_late_m\n",
         );
@@ -512,29 +534,21 @@ impl LobeAnalysis {
                 c.spread[1]
             );
         }
-        let files = [
-            dir.join("lobes.csv"),
-            dir.join("check.csv"),
-            dir.join("lobes.rrd"),
-        ];
-        write_text(&files[0], &lobes)?;
-        write_text(&files[1], &check)?;
-        write_plot(&files[2], &self.plot())?;
-        let mut written = files.to_vec();
-        if let Some((_, model)) = &self.from_frf {
-            let depth = |p: &LobePoint| p.boundary.map_or(f64::INFINITY, |b| b.depth);
-            let mut text = String::from(
-                "spindle_speed_rpm,frf_limiting_depth_m,model_limiting_depth_m,relative_difference\n",
-            );
-            for (p, m) in self.lobes.iter().zip(model) {
-                let (a, b) = (depth(p), depth(m));
-                let _ = writeln!(text, "{},{a},{b},{}", p.spindle_speed * RPM, a / b - 1.0);
-            }
-            let path = dir.join("frf-vs-model.csv");
-            write_text(&path, &text)?;
-            written.push(path);
+        check
+    }
+
+    /// With FRFs: their lobes and the scenario tool's per speed.
+    fn frf_csv(&self) -> Option<String> {
+        let (_, model) = self.from_frf.as_ref()?;
+        let depth = |p: &LobePoint| p.boundary.map_or(f64::INFINITY, |b| b.depth);
+        let mut text = String::from(
+            "spindle_speed_rpm,frf_limiting_depth_m,model_limiting_depth_m,relative_difference\n",
+        );
+        for (p, m) in self.lobes.iter().zip(model) {
+            let (a, b) = (depth(p), depth(m));
+            let _ = writeln!(text, "{},{a},{b},{}", p.spindle_speed * RPM, a / b - 1.0);
         }
-        Ok(written)
+        Some(text)
     }
 }
 
