@@ -378,6 +378,26 @@ fn the_feed_axis_open_loop_response_is_its_linear_model() {
     let difference = twin_cli::frf::linear_difference(&result).unwrap();
     println!("feed axis: largest |H − G|/|G| {difference:.3e}");
     assert!(difference < 0.03, "measured vs linear model: {difference}");
+    // frf.rrd draws the linear model over the measurement, on the same axes.
+    let dir = scratch("bode");
+    let written = write(&result, &dir).unwrap();
+    let contents = twin::recordings::inspect(&written[1]).unwrap();
+    assert_eq!(contents.views_2d, ["magnitude", "phase", "coherence γ²"]);
+    let layer = |name: &str| {
+        let path = format!("/figures/0/data/{name}");
+        let layers = contents.figure_layers.keys().collect::<Vec<_>>();
+        (contents.figure_layers.get(&path)).unwrap_or_else(|| panic!("{path} not in {layers:?}"))
+    };
+    let model = &layer("linear_model").lines;
+    assert!(!layer("measured").lines.is_empty());
+    let linear = result.linear.as_ref().unwrap();
+    let first = [result.lines[0].frequency_hz, 20.0 * linear[0].abs().log10()];
+    assert_eq!(model[0][0], first.map(|v| v as f32));
+    assert_eq!(
+        model.iter().map(Vec::len).sum::<usize>(),
+        result.lines.len()
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
     // With its P-PI on, the loop is closed: no comparison, and the reason names the controller.
     let closed = measure(
         &FrfArgs {

@@ -65,9 +65,9 @@ pub mod engine {
 /// back or salvaging a recording.
 pub mod recordings {
     pub use crate::recording::{
-        inspect, salvage, write_plot, write_study_plots, FigureLayer, Histogram, Plot2D, PlotAxis,
-        PlotGeometry, PlotLayer, PlotSpec, PlotTab, RecordingContents, SalvageReport, Scatter,
-        SeriesRole, SeriesSpec, StudyPlots,
+        inspect, salvage, write_figures, write_plot, write_study_plots, FigureLayer, Histogram,
+        Plot2D, PlotAxis, PlotGeometry, PlotLayer, PlotSpec, PlotTab, RecordingContents,
+        SalvageReport, Scatter, SeriesRole, SeriesSpec, StudyPlots,
     };
     pub use crate::scene::Scene;
 }

@@ -39,7 +39,7 @@ mod writer;
 
 pub use controllers::EventLevel;
 pub use inspect::{inspect, FigureLayer, RecordingContents};
-pub use plots::{write_plot, Plot2D, PlotAxis, PlotGeometry, PlotLayer};
+pub use plots::{write_figures, write_plot, Plot2D, PlotAxis, PlotGeometry, PlotLayer};
 pub use salvage::{salvage, SalvageReport};
 pub use study::{write_study_plots, Histogram, Scatter, StudyPlots};
 

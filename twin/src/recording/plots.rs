@@ -25,6 +25,8 @@ use super::{error_chain, RecordingError};
 
 const PLOT: &str = "plot";
 const NOTES: &str = "notes";
+/// Where [`write_figures`] draws its plots: `figures/<i>`.
+const FIGURES: &str = "figures";
 /// Width of the drawn window, canvas units.
 pub const CANVAS_WIDTH: f64 = 640.0;
 /// Height / width of the window when a plot does not say.
@@ -118,6 +120,46 @@ pub(super) type Log<'a> = dyn Fn(EntityPath, &dyn AsComponents) -> Result<(), Re
 
 /// Writes `plot` to `path` (through `<path>.part`, renamed once complete).
 pub fn write_plot(path: &Path, plot: &Plot2D) -> Result<(), RecordingError> {
+    let layout = plot_layout(&plot.title, visual_bounds(plot));
+    write_recording(path, (&plot.title, &plot.notes), layout, &[(PLOT, plot)])
+}
+
+/// Writes several plots into one recording at `path`, stacked in one column with `notes`
+/// beside them (a Bode diagram: magnitude, phase, coherence), each in its own view framed by
+/// its own axes.
+pub fn write_figures(
+    path: &Path,
+    title: &str,
+    notes: &str,
+    figures: &[Plot2D],
+) -> Result<(), RecordingError> {
+    let roots: Vec<String> = (0..figures.len())
+        .map(|i| format!("{FIGURES}/{i}"))
+        .collect();
+    let views = figures
+        .iter()
+        .zip(&roots)
+        .map(|(plot, root)| figure_view(&plot.title, root, visual_bounds(plot)))
+        .collect();
+    let column = blueprint::container(ContainerKind::Vertical, "", views, vec![1.0; figures.len()]);
+    let layout = blueprint::container(
+        ContainerKind::Horizontal,
+        "",
+        vec![column, notes_view()],
+        vec![3.0, 1.0],
+    );
+    let draws: Vec<(&str, &Plot2D)> = roots.iter().map(String::as_str).zip(figures).collect();
+    write_recording(path, (title, notes), layout, &draws)
+}
+
+/// A static recording of `draws` (each plot under its root) with its notes and `layout`,
+/// through `<path>.part`, renamed once complete.
+fn write_recording(
+    path: &Path,
+    (title, notes): (&str, &str),
+    layout: Node,
+    draws: &[(&str, &Plot2D)],
+) -> Result<(), RecordingError> {
     let mut partial = path.as_os_str().to_owned();
     partial.push(".part");
     let partial = PathBuf::from(partial);
@@ -129,14 +171,12 @@ pub fn write_plot(path: &Path, plot: &Plot2D) -> Result<(), RecordingError> {
         path: path.to_path_buf(),
         reason,
     };
-
-    let app = rerun::ApplicationId::new_or_unknown(plot.title.clone());
+    let app = rerun::ApplicationId::new_or_unknown(title.to_owned());
     let stream = RecordingStreamBuilder::new(app.clone())
-        .recording_name(plot.title.as_str())
+        .recording_name(title)
         .enabled(true)
         .save(&partial)
         .map_err(|err| create_error(error_chain(&err)))?;
-    let layout = plot_layout(&plot.title, visual_bounds(plot));
     blueprint::send(&stream, &app, layout, None).map_err(create_error)?;
     let log = |entity: EntityPath, archetype: &dyn AsComponents| {
         stream
@@ -145,9 +185,11 @@ pub fn write_plot(path: &Path, plot: &Plot2D) -> Result<(), RecordingError> {
     };
     log(
         EntityPath::from(NOTES),
-        &TextDocument::new(plot.notes.as_str()).with_media_type(MediaType::plain_text()),
+        &TextDocument::new(notes).with_media_type(MediaType::plain_text()),
     )?;
-    draw(&log, PLOT, plot)?;
+    for (root, plot) in draws {
+        draw(&log, root, plot)?;
+    }
     let flushed = stream.flush_blocking().map_err(|err| error_chain(&err));
     drop(stream);
     flushed.map_err(write_error)?;
@@ -610,30 +652,37 @@ fn label_spot(canvas: &Canvas, [x, y]: [f64; 2], label: &str) -> [f64; 2] {
 }
 
 /// The layout: the plot (its visual bounds `bounds`, canvas units) beside the notes.
-fn plot_layout(title: &str, [[left, top], [right, bottom]]: Window) -> Node {
+fn plot_layout(title: &str, bounds: Window) -> Node {
+    blueprint::container(
+        ContainerKind::Horizontal,
+        "",
+        vec![figure_view(title, PLOT, bounds), notes_view()],
+        vec![3.0, 1.0],
+    )
+}
+
+/// A 2D view of the plot drawn under `root`, framed to `bounds`.
+fn figure_view(title: &str, root: &str, [[left, top], [right, bottom]]: Window) -> Node {
     let bounds = Range2D {
         x_range: [left, right].into(),
         y_range: [top, bottom].into(),
     };
-    let plot = blueprint::view(
+    blueprint::view(
         "2D",
         title,
         "/",
-        vec![format!("+ /{PLOT}/**")],
+        vec![format!("+ /{root}/**")],
         vec![("VisualBounds2D", Box::new(VisualBounds2D::new(bounds)))],
-    );
-    let notes = blueprint::view(
+    )
+}
+
+fn notes_view() -> Node {
+    blueprint::view(
         "TextDocument",
         "notes",
         &format!("/{NOTES}"),
         vec![],
         vec![],
-    );
-    blueprint::container(
-        ContainerKind::Horizontal,
-        "",
-        vec![plot, notes],
-        vec![3.0, 1.0],
     )
 }
 

@@ -20,7 +20,7 @@ use std::f64::consts::TAU;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use thiserror::Error;
-use twin::recordings::{write_study_plots, Scatter, StudyPlots};
+use twin::recordings::{write_figures, Plot2D, PlotAxis, PlotGeometry, PlotLayer};
 use twin::{Observer, ObserverError, StepView, Twin};
 
 #[derive(Debug, Error)]
@@ -410,60 +410,98 @@ pub fn write(result: &FrfResult, dir: &Path) -> Result<Vec<PathBuf>, FrfError> {
             path: e.path,
             reason: e.reason,
         })?;
-    write_study_plots(&files[1], &bode(result))?;
+    let title = format!("frf {} → {}", result.input, result.output);
+    let legend = match result.linear {
+        Ok(_) => "blue: measured (H1); orange: the linear model (twin linearize)\n",
+        Err(_) => "blue: measured (H1)\n",
+    };
+    let notes = format!("{legend}{}", summary(result));
+    write_figures(&files[1], &title, &notes, &bode(result))?;
     Ok(files.to_vec())
 }
 
-/// Magnitude in dB (re 1 SI unit per N or N·m), phase in degrees and coherence against
-/// frequency; the linear model's magnitude and phase beside them where it applies.
-fn bode(result: &FrfResult) -> StudyPlots {
-    let series = |name: &str, y_label: &str, values: Vec<f64>| Scatter {
-        name: name.to_string(),
-        x_label: "frequency [Hz]".to_string(),
-        y_label: y_label.to_string(),
-        points: (result.lines.iter().zip(values))
+const MEASURED: [u8; 3] = [31, 119, 180];
+const LINEAR_MODEL: [u8; 3] = [255, 127, 14];
+
+/// A named, coloured curve of (frequency Hz, value) points.
+type Curve<'a> = (&'a str, [u8; 3], Vec<[f64; 2]>);
+
+/// The Bode diagram and the coherence against frequency: magnitude in dB (re 1 SI unit per N
+/// or N·m) and phase in degrees, the linear model's drawn over the measured where it applies.
+fn bode(result: &FrfResult) -> Vec<Plot2D> {
+    let curve = |values: &mut dyn Iterator<Item = f64>| -> Vec<[f64; 2]> {
+        (result.lines.iter().zip(values))
             .map(|(l, value)| [l.frequency_hz, value])
-            .collect(),
-        failed: Vec::new(),
+            .collect()
     };
     let decibels = |z: &Complex| 20.0 * z.abs().log10();
     let degrees = |z: &Complex| z.arg().to_degrees();
     let measured: Vec<Complex> = result.lines.iter().map(|l| l.response).collect();
-    const MAGNITUDE: &str = "magnitude [dB re 1 SI unit per N or N·m]";
-    let mut scatters = vec![
-        series(
-            "magnitude",
-            MAGNITUDE,
-            measured.iter().map(decibels).collect(),
+    let linear = result.linear.as_ref().ok();
+    let with_model = |f: &dyn Fn(&Complex) -> f64| {
+        let mut layers = vec![("measured", MEASURED, curve(&mut measured.iter().map(f)))];
+        if let Some(linear) = linear {
+            layers.push((
+                "linear_model",
+                LINEAR_MODEL,
+                curve(&mut linear.iter().map(f)),
+            ));
+        }
+        layers
+    };
+    let coherence = curve(&mut result.lines.iter().map(|l| l.coherence));
+    vec![
+        figure(
+            result,
+            "magnitude [dB re 1 SI unit per N or N·m]",
+            with_model(&decibels),
         ),
-        series("phase", "phase [°]", measured.iter().map(degrees).collect()),
-        series(
-            "coherence",
+        figure(result, "phase [°]", with_model(&degrees)),
+        figure(
+            result,
             "coherence γ² [-]",
-            result.lines.iter().map(|l| l.coherence).collect(),
+            vec![("coherence", MEASURED, coherence)],
         ),
-    ];
-    if let Ok(linear) = &result.linear {
-        let magnitude = series(
-            "linear model magnitude",
-            MAGNITUDE,
-            linear.iter().map(decibels).collect(),
-        );
-        scatters.insert(1, magnitude);
-        scatters.insert(
-            3,
-            series(
-                "linear model phase",
-                "phase [°]",
-                linear.iter().map(degrees).collect(),
-            ),
-        );
-    }
-    StudyPlots {
-        title: format!("frf {} → {}", result.input, result.output),
-        notes: summary(result),
-        histograms: Vec::new(),
-        scatters,
+    ]
+}
+
+/// One figure against frequency, its y window fitted to the finite values of its curves.
+fn figure(result: &FrfResult, y_title: &str, curves: Vec<Curve<'_>>) -> Plot2D {
+    let finite = curves
+        .iter()
+        .flat_map(|c| &c.2)
+        .map(|p| p[1])
+        .filter(|v| v.is_finite());
+    let (low, high) = finite.fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), v| {
+        (l.min(v), h.max(v))
+    });
+    let pad = 0.05 * (high - low).max(1e-9);
+    let frequencies = result.lines.iter().map(|l| l.frequency_hz);
+    let (first, last) = frequencies.fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), f| {
+        (l.min(f), h.max(f))
+    });
+    let layers = curves
+        .into_iter()
+        .map(|(name, color, points)| {
+            let pieces = points.split(|p| !p[1].is_finite()).map(<[_]>::to_vec);
+            let geometry = PlotGeometry::Lines(pieces.filter(|p| p.len() > 1).collect());
+            // The curves lie on each other where the model holds: the notes name the colours.
+            PlotLayer::new(name, color, 1.5, geometry, Vec::new())
+        })
+        .collect();
+    Plot2D {
+        title: y_title.split(" [").next().unwrap_or(y_title).to_string(),
+        notes: String::new(),
+        x: PlotAxis {
+            title: "frequency [Hz]".into(),
+            range: [first, last],
+        },
+        y: PlotAxis {
+            title: y_title.into(),
+            range: [low - pad, high + pad],
+        },
+        aspect: Some(0.35),
+        layers,
     }
 }
 
