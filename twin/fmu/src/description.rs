@@ -151,7 +151,8 @@ fn about_effort(simulator: &Simulator, a: usize) -> About {
     let actuator = &simulator.actuators()[a];
     let text = format!(
         "command to the drive of {}, held over the step, clipped to ±{}",
-        actuator.joint, actuator.effort_limit
+        actuator.joint,
+        simulator.command_limits()[a]
     );
     let unit = unit_name(simulator.command_units()[a]);
     (
@@ -216,7 +217,8 @@ fn about_command(simulator: &Simulator, a: usize) -> About {
     let text = format!(
         "command the controller gave the drive of {} at its last update (the step's start), \
          before the limit ±{}",
-        actuator.joint, actuator.effort_limit
+        actuator.joint,
+        simulator.command_limits()[a]
     );
     let unit = unit_name(simulator.command_units()[a]);
     (format!("effort.{}", actuator.joint), unit, text, None)

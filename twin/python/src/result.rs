@@ -80,7 +80,7 @@ pub struct RunResult {
     signals: Py<PyDict>,
     /// The signals as the controller measured them (through the sensors) by name.
     measured: Py<PyDict>,
-    /// The efforts the controller commanded, by actuator.
+    /// The efforts the controller commanded, by actuator (in `command_units`).
     commanded: Py<PyDict>,
     /// The efforts the joints received (clipped to the limits, through the drives), by actuator.
     efforts: Py<PyDict>,
@@ -91,7 +91,10 @@ pub struct RunResult {
     diagnostics: Py<PyDict>,
     /// The SI unit of each signal (`m`, `rad/s`, …), by name.
     units: Py<PyDict>,
-    /// The SI unit of each actuator's effort (`N` or `N·m`).
+    /// The SI unit of each actuator's commanded effort (`N`, `N·m`, or `A` where the drive
+    /// takes a current).
+    command_units: Py<PyDict>,
+    /// The SI unit of each actuator's applied effort (`N` or `N·m`).
     effort_units: Py<PyDict>,
     /// The SI unit of each internal signal.
     internal_units: Py<PyDict>,
@@ -118,6 +121,7 @@ impl RunResult {
             metrics.set_item(name, value)?;
         }
         let signal_units = specs.signals.iter().map(|s| s.unit.si_label());
+        let command_units = specs.efforts.iter().map(|u| u[0].si_label());
         let effort_units = specs.efforts.iter().map(|u| u[1].si_label());
         let internal_units = specs.internals.iter().map(|s| s.unit.si_label());
         let diagnostic_units = specs.diagnostics.iter().map(|s| s.unit.si_label());
@@ -133,6 +137,7 @@ impl RunResult {
             internals: columns(py, &layout.internals, &series.internals)?.unbind(),
             diagnostics: columns(py, &layout.diagnostics, &series.diagnostics)?.unbind(),
             units: units(py, &layout.signals, signal_units)?.unbind(),
+            command_units: units(py, &layout.actuators, command_units)?.unbind(),
             effort_units: units(py, &layout.actuators, effort_units)?.unbind(),
             internal_units: units(py, &layout.internals, internal_units)?.unbind(),
             diagnostic_units: units(py, &layout.diagnostics, diagnostic_units)?.unbind(),

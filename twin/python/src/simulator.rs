@@ -11,8 +11,9 @@ use std::time::Instant;
 use twin::StepError;
 
 /// The scenario's plant without its controller: `step(efforts)` holds the efforts (one per
-/// actuator, N or N·m, clipped to the actuator limits) over one control period and returns the
-/// measured signals at its end (SI, in the order of `signals`).
+/// actuator in its command unit, `effort_units`: N, N·m, or A where a drive takes a current;
+/// clipped to the actuator limits) over one control period and returns the measured signals at
+/// its end (SI, in the order of `signals`).
 #[pyclass(module = "twin._twin", frozen)]
 pub struct Simulator {
     inner: Mutex<twin::Simulator>,
@@ -115,29 +116,18 @@ impl Simulator {
         self.actuator_names()
     }
 
-    /// Each actuator's effort limit (N or N·m): larger efforts are clipped to it.
+    /// Each actuator's effort limit (in its `effort_units`; the drive's current limit on the
+    /// arm): larger efforts are clipped to it.
     #[getter]
     fn effort_limits<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
-        let limits: Vec<f64> = self
-            .lock()
-            .actuators()
-            .iter()
-            .map(|a| a.effort_limit)
-            .collect();
-        PyArray1::from_vec(py, limits)
+        PyArray1::from_slice(py, self.lock().command_limits())
     }
 
-    /// Each actuator's effort unit: `N` (a prismatic joint) or `N·m` (a revolute one).
+    /// Each actuator's command unit: `N` (a slide), `N·m` (a turning joint), or `A` where the
+    /// drive takes a current (the arm's).
     #[getter]
     fn effort_units(&self) -> Vec<&'static str> {
-        let sim = self.lock();
-        sim.actuators()
-            .iter()
-            .map(|a| match a.kind {
-                controllers::EffortKind::Force => "N",
-                controllers::EffortKind::Torque => "N·m",
-            })
-            .collect()
+        self.lock().command_units()
     }
 
     /// The measured signals at the last step (or reset).

@@ -66,7 +66,7 @@ def test_a_result_carries_every_series_in_si():
     r = s.run()
     assert len(r.time) == 501 and r.time[-1] == pytest.approx(0.5)
     assert r.units["ram_position"] == "m" and r.units["crank.velocity"] == "rad/s"
-    assert r.effort_units == {"crank": "N·m"}
+    assert r.effort_units == r.command_units == {"crank": "N·m"}
     assert set(r.signals) == set(r.measured) == set(s.signals)
     assert all(len(v) == 501 for v in r.signals.values())
     # The ram stays on its stroke (a metre-scale number, not millimetres).
@@ -134,9 +134,14 @@ def test_the_step_api_replaying_a_run_measures_what_the_run_measured(name):
 
 def test_the_simulator_describes_its_plant():
     sim = twin.Scenario("arm-milling").simulator()
-    assert sim.actuators == ["joint_1", "joint_2"] or len(sim.actuators) >= 2
-    assert len(sim.effort_limits) == len(sim.actuators) and np.all(sim.effort_limits > 0)
-    assert set(sim.effort_units) <= {"N", "N·m"}
+    assert sim.actuators == ["shoulder", "elbow", "wrist"]
+    # The arm's drives take a current, clipped at their 20 A protection (not at the joints'
+    # 84, 60 and 20 N·m); the feed axis's table a force.
+    assert sim.effort_units == ["A", "A", "A"]
+    np.testing.assert_array_equal(sim.effort_limits, [20.0, 20.0, 20.0])
+    table = twin.Scenario("feed-axis-micromilling").simulator()
+    assert table.effort_units == ["N"]
+    np.testing.assert_array_equal(table.effort_limits, [500.0])
     assert len(sim.units) == len(sim.signals)
     assert sim.time == 0.0 and sim.control_period == 1e-3
 

@@ -375,6 +375,16 @@ impl Machine for Arm {
         Unit::Ampere
     }
 
+    /// The drive's protection limit, A (the URDF's effort limit is the torque it gives).
+    fn command_limit(&self, actuator: &Actuator) -> f64 {
+        JOINTS
+            .iter()
+            .position(|&joint| joint == actuator.joint)
+            .map_or(actuator.effort_limit, |i| {
+                self.drives[i].params().current_limit
+            })
+    }
+
     fn scene(&self) -> Scene {
         scene(self.shoulder, &self.contour, &self.stock)
     }

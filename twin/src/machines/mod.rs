@@ -58,6 +58,12 @@ pub trait Machine: Send {
         effort_unit(actuator.kind)
     }
 
+    /// The largest command on `actuator`, in its [`Machine::command_unit`]: larger ones are
+    /// clipped to it. The actuator's effort limit, unless the drive takes another quantity.
+    fn command_limit(&self, actuator: &Actuator) -> f64 {
+        actuator.effort_limit
+    }
+
     /// What the mechanism view shows besides the links: its fixed frame, what is machined, and
     /// the points traced as the run goes.
     fn scene(&self) -> Scene;

@@ -99,6 +99,8 @@ pub struct Twin {
     mechanism: Mechanism,
     machine: Box<dyn Machine>,
     plant: PlantInterface,
+    /// Per actuator, the largest command (in its command unit): commands are clipped to it.
+    command_limits: Vec<f64>,
     layout: SignalLayout,
     /// Per plant signal: its sensor, if the scenario gives one.
     sensors: Vec<Option<Sensor>>,
@@ -164,6 +166,7 @@ impl Twin {
         actuators.extend(machine.extra_actuators());
         let mut layout =
             signal_layout(&mechanism, machine.as_ref(), scenario, &actuators).map_err(binding)?;
+        let command_limits = actuators.iter().map(|a| machine.command_limit(a)).collect();
         let plant = PlantInterface {
             machine: scenario.machine.clone(),
             signals: layout.signals.clone(),
@@ -197,6 +200,7 @@ impl Twin {
             mechanism,
             machine,
             plant,
+            command_limits,
             layout,
             sensors,
             actuated,

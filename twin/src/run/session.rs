@@ -412,7 +412,7 @@ impl<T: DerefMut<Target = Twin>> Session<T> {
         twin.faults.sensors(time, &mut values.measured);
     }
 
-    /// Clips the commands to the actuator limits, with an event when one starts or stops
+    /// Clips the commands to the command limits (the actuators' own, or their drives'), with an event when one starts or stops
     /// saturating; a non-finite command is a divergence.
     fn limit(&mut self, step: usize, time: f64) -> Option<Divergence> {
         let values = &mut self.values;
@@ -429,7 +429,8 @@ impl<T: DerefMut<Target = Twin>> Session<T> {
                 });
                 continue;
             }
-            let limited = commanded.clamp(-actuator.effort_limit, actuator.effort_limit);
+            let limit = self.twin.command_limits[a];
+            let limited = commanded.clamp(-limit, limit);
             values.limited[a] = limited;
             let now_saturated = limited != commanded;
             if now_saturated != values.saturated[a] {

@@ -140,8 +140,9 @@ impl Simulator {
     }
 
     /// One control period with `efforts` (one per actuator, in [`Simulator::actuators`]' order,
-    /// SI: N or N·m) held, clipped to the actuators' limits as in a run; the measured signals
-    /// at its end. After a divergence every step is refused until a reset.
+    /// SI, in [`Simulator::command_units`]: N, N·m, or A where a drive takes a current) held,
+    /// clipped to [`Simulator::command_limits`] as in a run; the measured signals at its end. After a
+    /// divergence every step is refused until a reset.
     pub fn step(&mut self, efforts: &[f64]) -> Result<&[f64], StepError> {
         if self.registry.is_some() {
             return Err(StepError::ControllerInLoop(self.controller().into()));
@@ -324,9 +325,15 @@ impl Simulator {
         &self.session.twin().loaded.scenario
     }
 
-    /// The actuators, in the order of a step's efforts, with their limits.
+    /// The actuators, in the order of a step's efforts, with the joints' effort limits.
     pub fn actuators(&self) -> &[Actuator] {
         &self.session.twin().plant.actuators
+    }
+
+    /// Each actuator's largest command, in [`Simulator::command_units`]: a step clips to it
+    /// (the joint's effort limit, or the drive's current limit where a drive takes a current).
+    pub fn command_limits(&self) -> &[f64] {
+        &self.session.twin().command_limits
     }
 
     /// The plant's signals (names, display units, plots), in the order of the measured and the

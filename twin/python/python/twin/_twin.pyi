@@ -106,6 +106,7 @@ class RunResult:
     internals: dict[str, npt.NDArray[np.float64]]
     diagnostics: dict[str, npt.NDArray[np.float64]]
     units: dict[str, str]
+    command_units: dict[str, str]
     effort_units: dict[str, str]
     internal_units: dict[str, str]
     diagnostic_units: dict[str, str]

@@ -9,7 +9,8 @@ Per step of the environment the plant runs one control period of its scenario.
 
 * observation: the measured signals (SI, through the scenario's sensors), in the order of
   ``env.unwrapped.signals``;
-* action: one value per actuator in [-1, 1], scaled by the actuator's effort limit (N or N·m);
+* action: one value per actuator in [-1, 1], scaled by the actuator's effort limit (N or N·m,
+  A on the arm, whose drives take a current);
 * reward: minus the machine's headline error at the end of the step, divided by its scale (see
   ``MACHINES``: each entry says which error and why that scale); on a divergence or a crash the
   episode is ``terminated`` and the reward is ``-failure_penalty`` per step left, so that ending
