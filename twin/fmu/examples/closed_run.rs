@@ -3,14 +3,33 @@
 //! the time, every measured and true signal, the efforts commanded and the controller's
 //! internals as CSV (17 significant digits). `--set` and `--controller` as for `twin run`;
 //! `--load JOINT FROM EFFORT` adds an effort from outside on a joint from FROM s on
-//! (`Twin::with_joint_effort`).
+//! (`Twin::with_joint_effort`); `--step-input AT EFFORT` replaces the controller by a step input,
+//! `EFFORT` on every actuator from `AT` s on (0 before), to compare a plant FMU's run with.
 //!
 //! `cargo run --release -p twin-fmu --example closed_run -- SCENARIO DURATION OUT.csv [--set K=V]
-//! [--controller NAME] [--load JOINT FROM EFFORT]`
+//! [--controller NAME] [--load JOINT FROM EFFORT] [--step-input AT EFFORT]`
 
-use controllers::Registry;
+use controllers::{Controller, ControllerError, Measurement, PlantInterface, Registry};
 use std::fmt::Write as _;
 use twin::{Observer, ObserverError, Overrides, SignalLayout, StepView, Twin};
+
+/// The controller of `--step-input`: `effort` on every actuator from `at` s on.
+struct StepInput {
+    at: f64,
+    effort: f64,
+}
+
+impl Controller for StepInput {
+    fn name(&self) -> &str {
+        "step-input"
+    }
+    fn reset(&mut self, _plant: &PlantInterface) -> Result<(), ControllerError> {
+        Ok(())
+    }
+    fn update(&mut self, m: &Measurement, _period: f64, efforts: &mut [f64]) {
+        efforts.fill(if m.time >= self.at { self.effort } else { 0.0 });
+    }
+}
 
 #[derive(Default)]
 struct Csv(String);
@@ -48,9 +67,16 @@ impl Observer for Csv {
 type Load = (String, f64, f64);
 
 /// The options after the three positional arguments.
-fn options(args: &[String]) -> Result<(Overrides, Option<Load>), String> {
+struct Options {
+    overrides: Overrides,
+    load: Option<Load>,
+    step_input: Option<StepInput>,
+}
+
+fn options(args: &[String]) -> Result<Options, String> {
     let mut overrides = Overrides::default();
-    let mut load = None;
+    let (mut load, mut step_input) = (None, None);
+    let number = |text: String, what: &str| text.parse().map_err(|e| format!("{what}: {e}"));
     let mut rest = args.iter();
     while let Some(option) = rest.next() {
         let mut value = || {
@@ -63,31 +89,40 @@ fn options(args: &[String]) -> Result<(Overrides, Option<Load>), String> {
             "--controller" => overrides.controller = Some(value()?),
             "--load" => {
                 let joint = value()?;
-                let from = value()?.parse().map_err(|e| format!("--load FROM: {e}"))?;
-                let effort = value()?
-                    .parse()
-                    .map_err(|e| format!("--load EFFORT: {e}"))?;
-                load = Some((joint, from, effort));
+                let from = number(value()?, "--load FROM")?;
+                load = Some((joint, from, number(value()?, "--load EFFORT")?));
+            }
+            "--step-input" => {
+                let at = number(value()?, "--step-input AT")?;
+                let effort = number(value()?, "--step-input EFFORT")?;
+                step_input = Some(StepInput { at, effort });
             }
             other => return Err(format!("unknown option {other}")),
         }
     }
-    Ok((overrides, load))
+    Ok(Options {
+        overrides,
+        load,
+        step_input,
+    })
 }
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let usage = "usage: closed_run SCENARIO DURATION OUT.csv [--set K=V] [--controller NAME] \
-                 [--load JOINT FROM EFFORT]";
+                 [--load JOINT FROM EFFORT] [--step-input AT EFFORT]";
     let [scenario, duration, out, rest @ ..] = &args[..] else {
         return Err(usage.into());
     };
-    let (mut overrides, load) = options(rest)?;
-    overrides.set.insert(0, format!("duration={duration}"));
-    let loaded = twin::load_scenario(scenario, &overrides, &Registry::builtin())?;
+    let mut options = options(rest)?;
+    (options.overrides.set).insert(0, format!("duration={duration}"));
+    let loaded = twin::load_scenario(scenario, &options.overrides, &Registry::builtin())?;
     let scenario = loaded.scenario.clone();
-    let mut twin = Twin::new(loaded)?;
-    if let Some((joint, from, effort)) = load {
+    let mut twin = match options.step_input {
+        Some(step_input) => Twin::with_controller(loaded, Box::new(step_input))?,
+        None => Twin::new(loaded)?,
+    };
+    if let Some((joint, from, effort)) = options.load {
         let every = scenario.control_every();
         // From the first control update at or after FROM, as a host's input arrives.
         let first = (from / scenario.control_period() - 1e-9).ceil() as usize * every;

@@ -1,7 +1,7 @@
 """The twin's FMUs checked by a real FMI client, FMPy 0.3.32 (scripts/test-tools installs it):
 the plant alone (`twin fmu --no-controller`) and the closed loop with the scenario's controller
 (`twin fmu`, the default), against the twin's own runs (`Twin::run_with` through the examples
-step_run and closed_run, and `twin run --summary`), never against the FMU itself.
+closed_run, and `twin run --summary`), never against the FMU itself.
 
 TWIN names the `twin` executable (default: target/release/twin beside libtwin_fmu.so);
 `cargo build --release -p twin-cli -p twin-fmu` builds both. Run:
@@ -70,14 +70,8 @@ def test_every_machine_validates(scenario, kind, tmp_path):
 
 
 def twin_run(scenario, duration, step_at, effort, folder):
-    """The twin's own run of the step (examples/step_run.rs, through Twin::run_with)."""
-    out = folder / "run.csv"
-    subprocess.run(
-        ["cargo", "run", "--quiet", "--release", "-p", "twin-fmu", "--example", "step_run",
-         "--", scenario, str(duration), str(step_at), str(effort), str(out)],
-        check=True, cwd=ROOT,
-    )
-    return np.genfromtxt(out, delimiter=",", names=True, deletechars="")
+    """The twin's own run of the step (examples/closed_run.rs --step-input, Twin::run_with)."""
+    return closed_run(scenario, duration, folder, "--step-input", str(step_at), str(effort))
 
 
 @pytest.mark.parametrize(

@@ -3,7 +3,7 @@
 
 use numpy::PyArray1;
 use pyo3::prelude::*;
-use pyo3::types::{PyDict, PyList};
+use pyo3::types::PyDict;
 use std::path::PathBuf;
 use twin::{Observer, ObserverError, SignalLayout, StepView};
 
@@ -114,8 +114,10 @@ impl RunResult {
         let layout = (series.layout)
             .ok_or_else(|| crate::TwinError::new_err("the run ended before its first step"))?;
         let specs = &layout.specs;
-        let json = twin::summary::to_json(summary);
-        let summary_dict = json_to_python(py, &json)?.cast_into::<PyDict>()?;
+        // As `twin run --summary` writes it, read as Python reads JSON.
+        let json = twin::summary::to_json(summary).to_string();
+        let summary_dict =
+            (py.import("json")?.call_method1("loads", (json,))?).cast_into::<PyDict>()?;
         let metrics = PyDict::new(py);
         for (name, value) in &summary.metrics {
             metrics.set_item(name, value)?;
@@ -171,29 +173,4 @@ impl RunResult {
             self.time.bind(py).len()?
         ))
     }
-}
-
-/// A JSON value as the Python value `json.loads` would give.
-fn json_to_python<'py>(py: Python<'py>, value: &serde_json::Value) -> PyResult<Bound<'py, PyAny>> {
-    use serde_json::Value;
-    Ok(match value {
-        Value::Null => py.None().into_bound(py),
-        Value::Bool(b) => b.into_pyobject(py)?.to_owned().into_any(),
-        Value::Number(n) => match n.as_i64() {
-            Some(i) => i.into_pyobject(py)?.into_any(),
-            None => n.as_f64().unwrap_or(f64::NAN).into_pyobject(py)?.into_any(),
-        },
-        Value::String(s) => s.into_pyobject(py)?.into_any(),
-        Value::Array(items) => {
-            let items: PyResult<Vec<_>> = items.iter().map(|v| json_to_python(py, v)).collect();
-            PyList::new(py, items?)?.into_any()
-        }
-        Value::Object(entries) => {
-            let dict = PyDict::new(py);
-            for (key, entry) in entries {
-                dict.set_item(key, json_to_python(py, entry)?)?;
-            }
-            dict.into_any()
-        }
-    })
 }

@@ -127,7 +127,7 @@ impl Scenario {
     /// The control period, s: how often a controller (and a simulator's step) acts.
     #[getter]
     fn control_period(&self) -> f64 {
-        self.scenario.control_period.unwrap_or(self.scenario.dt)
+        self.scenario.control_period()
     }
 
     /// The plant's measured signals' names, in the order of a controller's `measurements`.

@@ -12,7 +12,7 @@ use twin::StepError;
 
 /// The scenario's plant without its controller: `step(efforts)` holds the efforts (one per
 /// actuator in its command unit, `effort_units`: N, N·m, or A where a drive takes a current;
-/// clipped to the actuator limits) over one control period and returns the measured signals at
+/// clipped to `effort_limits`) over one control period and returns the measured signals at
 /// its end (SI, in the order of `signals`).
 #[pyclass(module = "twin._twin", frozen)]
 pub struct Simulator {
@@ -88,8 +88,7 @@ impl Simulator {
     /// The control period (one `step`), s.
     #[getter]
     fn control_period(&self) -> f64 {
-        let sim = self.lock();
-        sim.scenario().control_period.unwrap_or(sim.scenario().dt)
+        self.lock().scenario().control_period()
     }
 
     /// The scenario's simulated duration, s.

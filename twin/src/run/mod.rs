@@ -24,7 +24,7 @@ pub use summary::{
 
 use crate::faults::FaultSet;
 use crate::machines::{self, Machine, MachineError};
-use crate::mechanism::{JointMotion, Mechanism};
+use crate::mechanism::{Joint, JointMotion, Mechanism};
 use crate::physics::{BodyShapes, ContactDetector, MechanismState};
 use crate::recording::{LiveViewer, RecordingError};
 use crate::scenario::{BodyKind, BodySpec, Engine, LoadedScenario, Scenario, ScenarioError};
@@ -620,7 +620,7 @@ fn initial_states(
         .collect()
 }
 
-/// An actuator per actuated tree joint: a force on a prismatic joint, else a torque.
+/// An actuator per actuated tree joint.
 fn joint_actuators(mechanism: &Mechanism, actuated: &[usize]) -> Vec<Actuator> {
     actuated
         .iter()
@@ -628,12 +628,17 @@ fn joint_actuators(mechanism: &Mechanism, actuated: &[usize]) -> Vec<Actuator> {
             let joint = &mechanism.joints[j];
             Actuator {
                 joint: joint.name.clone(),
-                kind: match joint.motion {
-                    JointMotion::Prismatic { .. } => EffortKind::Force,
-                    _ => EffortKind::Torque,
-                },
+                kind: effort_kind(joint),
                 effort_limit: joint.effort_limit.unwrap_or(f64::INFINITY),
             }
         })
         .collect()
+}
+
+/// The effort a joint takes: a force on a prismatic joint, else a torque.
+fn effort_kind(joint: &Joint) -> EffortKind {
+    match joint.motion {
+        JointMotion::Prismatic { .. } => EffortKind::Force,
+        _ => EffortKind::Torque,
+    }
 }

@@ -317,6 +317,7 @@ impl<T: DerefMut<Target = Twin>> Session<T> {
 
     /// The plant's true signals and the diagnostics for the state at `time`.
     fn sense(&mut self, time: f64) {
+        let reference_now = self.reference_at(time);
         let twin = &mut *self.twin;
         let values = &mut self.values;
         let layout = &twin.layout;
@@ -328,10 +329,8 @@ impl<T: DerefMut<Target = Twin>> Session<T> {
         gaps.copy_from_slice(&values.state.loop_gaps);
         let scenario = &twin.loaded.scenario;
         *energy = mechanical_energy(&twin.mechanism, &values.state, scenario.gravity);
-        if let (Some(path), Some(reference)) = (&scenario.reference, reference) {
-            let sample = path.sample(time);
-            reference.copy_from_slice(&[sample.position, sample.rate, sample.acceleration]);
-            offset(reference, self.reference_offset);
+        if let (Some(now), Some(reference)) = (reference_now, reference) {
+            reference.copy_from_slice(&now);
         }
     }
 
@@ -412,8 +411,8 @@ impl<T: DerefMut<Target = Twin>> Session<T> {
         twin.faults.sensors(time, &mut values.measured);
     }
 
-    /// Clips the commands to the command limits (the actuators' own, or their drives'), with an event when one starts or stops
-    /// saturating; a non-finite command is a divergence.
+    /// Clips the commands to the command limits (the actuators' own, or their drives'), with an
+    /// event when one starts or stops saturating; a non-finite command is a divergence.
     fn limit(&mut self, step: usize, time: f64) -> Option<Divergence> {
         let values = &mut self.values;
         let mut failure = None;

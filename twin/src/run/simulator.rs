@@ -5,7 +5,7 @@
 //! one door, [`Twin::run_with`].
 
 use super::session::Session;
-use super::{Divergence, Twin, TwinError};
+use super::{effort_kind, Divergence, Twin, TwinError};
 use crate::scenario::{LoadedScenario, Scenario};
 use controllers::{
     Actuator, Controller, ControllerError, EffortKind, Measurement, PlantInterface, Registry,
@@ -272,11 +272,7 @@ impl Simulator {
         joints
             .map(|&j| {
                 let joint = &twin.mechanism.joints[j];
-                let kind = match joint.motion {
-                    crate::mechanism::JointMotion::Prismatic { .. } => EffortKind::Force,
-                    _ => EffortKind::Torque,
-                };
-                (joint.name.as_str(), kind)
+                (joint.name.as_str(), effort_kind(joint))
             })
             .collect()
     }
