@@ -4,17 +4,17 @@
 //!
 //! # Cutting force
 //!
-//! The mechanistic form of Rubio, Ibeas & Luo's eqs (2)–(4) (see [`crate::micromilling`] for the
+//! The mechanistic form of Rubio, Ibeas & Luo (Rubio eqs (2)–(4)) (see [`crate::micromilling`] for the
 //! micro-scale version with run-out), at machining-robot scale: per tooth `F_t = K_t·h·a`,
-//! `F_n = K_n·h·a` (eqs 2–3, straight flutes, `a` the axial depth — here the part's thickness
-//! across the arm's plane), projected with eq (4) on the feed direction x and its normal y,
+//! `F_n = K_n·h·a` (Rubio eqs (2)–(3), straight flutes, `a` the axial depth — here the part's thickness
+//! across the arm's plane), projected with Rubio eq (4) on the feed direction x and its normal y,
 //! `F_x = −F_t cos φ − F_n sin φ`, `F_y = F_t sin φ − F_n cos φ` (φ from +y, in the cutter's sense
 //! of rotation). The chip is `h = f_z·sin φ` with the feed per tooth `f_z = V/(N·n)` — path speed
 //! over teeth times spindle revolutions per second — and no run-out: a robot-held macro cutter
 //! has run-out far below its 0.1 mm chips.
 //!
 //! The twin steps at 1 ms, slower than the teeth pass (200 Hz at 6,000 rpm with two teeth), so it
-//! applies the force **averaged over a tooth period**: `N/2π` times the integral of eq (4) over
+//! applies the force **averaged over a tooth period**: `N/2π` times the integral of Rubio eq (4) over
 //! the engaged arc. With radial depth `a_e` on a cutter of radius `R`, the arc spans
 //! `φ_e = acos(1 − a_e/R)`: `[0, φ_e]` in up (conventional) milling, `[π − φ_e, π]` in down
 //! (climb) milling. With `S₁ = [sin²φ/2]` and `S₂ = [φ/2 − sin 2φ/4]` over the arc:
@@ -245,7 +245,7 @@ mod tests {
         Cutter::new(CutterParams::default()).unwrap()
     }
 
-    /// The tooth-period mean by brute force: eq (4) summed over teeth at many cutter angles.
+    /// The tooth-period mean by brute force: Rubio eq (4) summed over teeth at many cutter angles.
     fn averaged(mode: MillingMode, depth: f64, speed: f64, spindle: f64) -> (f64, f64, f64) {
         let c = cutter();
         let p = c.params;

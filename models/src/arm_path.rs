@@ -1,15 +1,15 @@
 //! The machining robot's program, after Ilyukhin, Poduraev & Tatarintseva (DAAAM 2014, §2): a part
 //! contour of lines and arcs in the arm's plane, cut into control points an equal path length
 //! `L` apart, turned into joint coordinates by the arm's inverse kinematics, and interpolated per
-//! segment by a cubic in the path length (their eq 2) whose coefficients come from the
-//! neighbouring control points (eqs 3–4). The path length `l` is integrated from the path speed;
+//! segment by a cubic in the path length (Ilyukhin eq (2)) whose coefficients come from the
+//! neighbouring control points (Ilyukhin eqs (3)–(4)). The path length `l` is integrated from the path speed;
 //! a segment is left when `l` reaches `L` ([`JointPath::advance`]).
 //!
 //! **Coefficients.** With the end derivatives `q'_k = (q_{k+1} − q_{k−1})/2L` and
 //! `q'_{k+1} = (q_{k+2} − q_k)/2L` (their choice), the cubic through both points with both
 //! derivatives has `d = q_k`, `c = Δ1/2L`, `b = (6Δ0 − 2Δ1 − Δ2)/L²` and
 //! `a = (−12Δ0 + 3Δ1 + 3Δ2)/L³`, with `Δ0 = q_{k+1} − q_k`, `Δ1 = q_{k+1} − q_{k−1}`,
-//! `Δ2 = q_{k+2} − q_k`. The printed eq (4) has `−3Δ2` in `a`, and eq (3) `−2(q'_{k+1} − q'_k)`
+//! `Δ2 = q_{k+2} − q_k`. The printed Ilyukhin eq (4) has `−3Δ2` in `a`, and Ilyukhin eq (3) `−2(q'_{k+1} − q'_k)`
 //! where the end-point condition needs `−2(q_{k+1} − q_k)`; both are misprints (with them the
 //! cubic misses `q_{k+1}`), and the twin uses the Hermite form, which the unit tests check. At
 //! the contour's ends the missing neighbour is extrapolated linearly (`q_{−1} = 2q_0 − q_1`).
@@ -360,12 +360,12 @@ impl Piece {
     }
 }
 
-/// The joint-space program: per segment and joint, the cubic of eq (2) in the path length.
+/// The joint-space program: per segment and joint, the cubic of Ilyukhin eq (2) in the path length.
 #[derive(Debug, Clone, PartialEq)]
 pub struct JointPath {
     /// Equal segment length L, m.
     spacing: f64,
-    /// Per segment, per joint: `[a, b, c, d]` of eq (2).
+    /// Per segment, per joint: `[a, b, c, d]` of Ilyukhin eq (2).
     coefficients: Vec<[[f64; 4]; 3]>,
     /// Joint angles at the control points.
     points: Vec<[f64; 3]>,
@@ -485,7 +485,7 @@ impl JointPath {
         cursor.segment + 1 == self.coefficients.len() && cursor.along >= self.spacing
     }
 
-    /// The reference of eq (2) at `cursor`.
+    /// The reference of Ilyukhin eq (2) at `cursor`.
     pub fn sample(&self, cursor: &PathCursor) -> JointSample {
         let k = cursor.segment.min(self.coefficients.len() - 1);
         let l = cursor.along;

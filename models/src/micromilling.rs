@@ -1,15 +1,15 @@
 //! Micro-milling on a linear-motor feed axis, after Rubio, Ibeas & Luo ("P-PI and super twisting
 //! sliding mode control schemes comparison for high-precision CNC machining"): the cutting force
-//! that disturbs the axis (their §II.B, eqs (2)–(4)); the sine reference of their §V is a
+//! that disturbs the axis (their §II.B, Rubio eqs (2)–(4)); the sine reference of their §V is a
 //! [`Reference::Sine`](crate::reference::Reference::Sine).
 //!
 //! # Cutting force
 //!
 //! The paper takes the mechanistic model of Wu's micro-milling thesis (its ref. [7]): per tooth, a
-//! tangential force `F_t = K_t·h·w` and a normal force `F_n = K_n·h·w` (eq (2)), with `h` the
-//! undeformed chip thickness and `w` the axial depth of cut (eq (3) integrated over a straight
+//! tangential force `F_t = K_t·h·w` and a normal force `F_n = K_n·h·w` (Rubio eq (2)), with `h` the
+//! undeformed chip thickness and `w` the axial depth of cut (Rubio eq (3) integrated over a straight
 //! flute, helix neglected as in the paper's 2-D orthogonal assumption), projected onto the feed
-//! axis with eq (4): on the tool, `F_x = −F_t cos φ − F_n sin φ`, where φ is the tooth angle
+//! axis with Rubio eq (4): on the tool, `F_x = −F_t cos φ − F_n sin φ`, where φ is the tooth angle
 //! measured from the axis normal to the feed, growing with the spindle's rotation (Altintas'
 //! convention). The table carries the workpiece, so the force on the table is `−F_x`.
 //!
@@ -214,7 +214,7 @@ impl MicroMillingCut {
         let (sin, cos) = self.tooth_angle(tooth, time).sin_cos();
         let tangential = self.params.tangential_coefficient * chip * self.params.axial_depth;
         let normal = self.params.normal_coefficient * chip * self.params.axial_depth;
-        // Eq (4) gives the force on the tool; the workpiece, and so the table, takes the reaction.
+        // Rubio eq (4) gives the force on the tool; the workpiece, and so the table, takes the reaction.
         Some(tangential * cos + normal * sin)
     }
 

@@ -1,26 +1,26 @@
 //! Constant-cutting-velocity reference of the Whitworth paper (Perrusquía et al. 2022, §4,
-//! Algorithm 1, eqs 2–5): a trapezoidal velocity profile with parabolic position blends over the
+//! Algorithm 1, Perrusquía eqs (2)–(5)): a trapezoidal velocity profile with parabolic position blends over the
 //! cutting stroke, from the stroke end where cutting starts (`x_min`) to the one where it ends
 //! (`x_max`).
 //!
 //! The stroke is covered in three phases:
 //! 1. blend, `0 ≤ t < t_a`: constant acceleration `v/t_a` from rest at `x_min`, reaching `v` at
-//!    `x_a` (eq 4: `x_a = x_min + (v/2t_a)·t_a²`);
-//! 2. cut, `t_a ≤ t < t_a + t_c`: constant velocity `v` from `x_a` to `x_b` (eq 5), over the
-//!    workpiece length `L_d = |x_b − x_a|` in `t_c = L_d/|v|` (eq 2);
+//!    `x_a` (Perrusquía eq (4): `x_a = x_min + (v/2t_a)·t_a²`);
+//! 2. cut, `t_a ≤ t < t_a + t_c`: constant velocity `v` from `x_a` to `x_b` (Perrusquía eq (5)), over the
+//!    workpiece length `L_d = |x_b − x_a|` in `t_c = L_d/|v|` (Perrusquía eq (2));
 //! 3. blend, `t_d = t_a` long, decelerating back to rest.
 //!
 //! Consistency: each blend covers `|v|·t_a/2`, so the whole profile covers
-//! `|v|·(t_c + t_a) = L_c` with `t_a = L_c/|v| − t_c` (eq 3) — it ends exactly on `x_max` at
+//! `|v|·(t_c + t_a) = L_c` with `t_a = L_c/|v| − t_c` (Perrusquía eq (3)) — it ends exactly on `x_max` at
 //! `t_a + t_c + t_d`. Equivalently `t_a = (L_c − L_d)/|v|` and each blend is `(L_c − L_d)/2` long,
 //! whatever `v` is. The paper defines `L_c = x_max − x_min`; it is used here as the unsigned
 //! length `|x_max − x_min|`, the direction of travel being the sign of `x_max − x_min`, which
 //! `v` must share (the twin's cutting stroke runs downward, so there `v < 0`).
 //!
 //! The paper's worked example (§6.2: `L_d = 0.3 m`, `L_c = 0.4667 m`, `v = −1.25 m/s`,
-//! `y_min = 0.05428 m`) prints `t_c = 0.3937 s`, `t_a = 0.2187 s`. Eqs 2–3 give
+//! `y_min = 0.05428 m`) prints `t_c = 0.3937 s`, `t_a = 0.2187 s`. Perrusquía eqs (2)–(3) give
 //! `t_c = 0.24 s`, `t_a = 0.13336 s`; the printed times are what the same equations give for
-//! `|v| ≈ 0.762 m/s` (= 0.3/0.3937). Its `y_a = −0.0291 m`, `y_b = −0.3291 m` agree with eqs 4–5
+//! `|v| ≈ 0.762 m/s` (= 0.3/0.3937). Its `y_a = −0.0291 m`, `y_b = −0.3291 m` agree with Perrusquía eqs (4)–(5)
 //! (`−0.02907`, `−0.32907`), which do not depend on `|v|`. The equations are implemented as
 //! written.
 
@@ -79,7 +79,7 @@ pub struct ProfileSample {
 }
 
 impl ProfileSample {
-    /// `z_d = [x_d, ẋ_d]` as in the paper's error `e = z_d − z` (eq 12).
+    /// `z_d = [x_d, ẋ_d]` as in the paper's error `e = z_d − z` (Perrusquía eq (12)).
     pub fn z(&self) -> [f64; 2] {
         [self.position, self.velocity]
     }
@@ -148,9 +148,9 @@ impl VelocityProfile {
             });
         }
         let speed = velocity.abs();
-        // Eq 2.
+        // Perrusquía eq (2).
         let t_c = workpiece_length / speed;
-        // Eq 3; positive whenever L_d < L_c, so only an absurd speed (floating-point
+        // Perrusquía eq (3); positive whenever L_d < L_c, so only an absurd speed (floating-point
         // underflow/overflow) can make the blend degenerate.
         let t_a = stroke_length / speed - t_c;
         let blend_acceleration = velocity / t_a;
@@ -161,7 +161,7 @@ impl VelocityProfile {
                 acceleration: blend_acceleration,
             });
         }
-        // Eqs 4–5.
+        // Perrusquía eqs (4)–(5).
         let x_a = x_min + velocity / (2.0 * t_a) * t_a * t_a;
         let x_b = x_min + velocity / (2.0 * t_a) * t_a * t_a + velocity * t_c;
         Ok(Self {
@@ -193,23 +193,23 @@ impl VelocityProfile {
     pub fn stroke_length(&self) -> f64 {
         self.stroke_length
     }
-    /// Cutting time `t_c` (eq 2), s.
+    /// Cutting time `t_c` (Perrusquía eq (2)), s.
     pub fn t_c(&self) -> f64 {
         self.t_c
     }
-    /// Acceleration blend time `t_a` (eq 3), s.
+    /// Acceleration blend time `t_a` (Perrusquía eq (3)), s.
     pub fn t_a(&self) -> f64 {
         self.t_a
     }
-    /// Deceleration blend time `t_d = t_a` (eq 3), s.
+    /// Deceleration blend time `t_d = t_a` (Perrusquía eq (3)), s.
     pub fn t_d(&self) -> f64 {
         self.t_a
     }
-    /// Start of the constant-velocity segment `x_a` (eq 4), m.
+    /// Start of the constant-velocity segment `x_a` (Perrusquía eq (4)), m.
     pub fn x_a(&self) -> f64 {
         self.x_a
     }
-    /// End of the constant-velocity segment `x_b` (eq 5), m.
+    /// End of the constant-velocity segment `x_b` (Perrusquía eq (5)), m.
     pub fn x_b(&self) -> f64 {
         self.x_b
     }
@@ -302,7 +302,7 @@ mod tests {
 
     #[test]
     fn printed_times_correspond_to_a_slower_cut() {
-        // Eqs 2–3 with |v| = 0.3/0.3937 reproduce the paper's printed t_c and t_a.
+        // Perrusquía eqs (2)–(3) with |v| = 0.3/0.3937 reproduce the paper's printed t_c and t_a.
         let slow = ProfileParams {
             velocity: -0.3 / 0.3937,
             ..twin()

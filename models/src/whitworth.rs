@@ -83,7 +83,7 @@ pub struct Jacobian {
 }
 
 impl Jacobian {
-    /// [1, dr3/dq, dθ3/dq, dθ4/dq, dy/dq]: ρ of eqs (6)–(9), with q itself as the first entry.
+    /// [1, dr3/dq, dθ3/dq, dθ4/dq, dy/dq]: ρ of Perrusquía eqs (6)–(9), with q itself as the first entry.
     pub fn extended(&self) -> [f64; 5] {
         [
             1.0,

@@ -9,7 +9,7 @@
 //! - `τ` is the crank torque and `f_y` an external vertical force on the ram (a cutting force),
 //!   which does the virtual work `f_y·δy = ρ_y·f_y·δq`.
 //!
-//! This is the paper's extended model (its eq 6 and Appendix B, eq B.4) written with the twin's
+//! This is the paper's extended model (Perrusquía eq (6) and Appendix B, eq B.4) written with the twin's
 //! link masses instead of the paper's unprinted ones: `M(q) = ρᵀ·M′·ρ`, with ρ the extended
 //! Jacobian of the centres of mass and link angles. Nothing here reads the simulator; the masses
 //! default to the ones in `urdf/whitworth.urdf`.

@@ -1,7 +1,7 @@
 //! Joint servos and path following of the machining arm, shared by the path-speed controllers
 //! ([`super::path_speed_adaptive`], [`super::path_speed_constant`]): the robot program of
 //! `models::arm_path` (control points → inverse kinematics → cubics in the path length,
-//! Ilyukhin et al. eqs 2–4) walked at the path speed the controller chooses, and one PID position
+//! Ilyukhin eqs (2)–(4)) walked at the path speed the controller chooses, and one PID position
 //! servo per joint whose output is the joint drive's **current command, in A** (the arm's drives
 //! take currents; see the `arm` machine).
 //!
@@ -112,7 +112,7 @@ impl Default for ServoParams {
     }
 }
 
-/// PID gains per unit inertia, eq (2): acceleration demand in rad/s² per rad, per rad·s and per
+/// PID gains per unit inertia, Ilyukhin eq (2): acceleration demand in rad/s² per rad, per rad·s and per
 /// rad/s.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct JointGains {
@@ -124,9 +124,9 @@ pub struct JointGains {
 /// The servo design and the program built from the parameters.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ServoDesign {
-    /// The gains of every joint's PID, eq (1).
+    /// The gains of every joint's PID, Ilyukhin eq (1).
     pub gains: JointGains,
-    /// The arm's rigid-body model `M̂(q)` of eq (3) comes from: the three joints and the cutter
+    /// The arm's rigid-body model `M̂(q)` of Ilyukhin eq (3) comes from: the three joints and the cutter
     /// welded on the spindle axis (its joint held at 0).
     pub model: SerialChain,
     pub program: JointPath,
@@ -136,7 +136,7 @@ pub struct ServoDesign {
     pub crossover: f64,
 }
 
-/// Gains by pole placement (eq 2), the arm's model and the program through the inverse
+/// Gains by pole placement (Ilyukhin eq (2)), the arm's model and the program through the inverse
 /// kinematics. Errors name the entry of `[controller.params.servo]` at fault.
 pub fn design(controller: &str, params: &ServoParams) -> Result<ServoDesign, ControllerError> {
     let w = positive(controller, "servo.bandwidth", params.bandwidth)?;
@@ -262,7 +262,7 @@ fn model(controller: &str, params: &ServoParams) -> Result<SerialChain, Controll
     })
 }
 
-/// Crossover of `L(s) = ω(3s² + 3ωs + ω²)/s³` (the PID of eq 2 over the unit inertia):
+/// Crossover of `L(s) = ω(3s² + 3ωs + ω²)/s³` (the PID of Ilyukhin eq (2) over the unit inertia):
 /// `|L(jx)| = 1` solved by bisection.
 fn crossover(w: f64) -> f64 {
     let magnitude =
@@ -436,7 +436,7 @@ impl ArmServo {
         event
     }
 
-    /// The joint servos, eqs (1) and (3): the PID's acceleration demand through `M̂(q)` to
+    /// The joint servos, Ilyukhin eqs (1) and (3): the PID's acceleration demand through `M̂(q)` to
     /// current commands within the limits ([`limited_torques`]); a joint's integral stops while
     /// its command is clipped.
     fn servo(&mut self, q: [f64; 3], velocity: [f64; 3], reference: Reference, period: f64) {
@@ -468,7 +468,7 @@ impl ArmServo {
     }
 }
 
-/// Eq (3) within the drives' torque limits: `τ = M̂·a`, except that a joint whose torque would
+/// Ilyukhin eq (3) within the drives' torque limits: `τ = M̂·a`, except that a joint whose torque would
 /// pass its limit is held at the limit and its acceleration left to follow, while the others
 /// still get the accelerations they demand — `M̂·a = τ` solved for the clipped joints'
 /// accelerations and the free joints' torques, clipping the joint furthest over its limit until

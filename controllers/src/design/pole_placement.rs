@@ -1,12 +1,12 @@
 //! Single-input pole placement by Ackermann's formula
 //! `K = [0 … 0 1]·𝒞⁻¹·φ(A)`, `𝒞 = [b, Ab, …, Aⁿ⁻¹b]`, which makes the characteristic polynomial
 //! of `A − bK` equal to the desired monic `φ`. This is how the paper's feedforward-feedback
-//! baseline is tuned: eq 38 asks for `det(λI − A + BK) = λ² + 2ξω_nλ + ω_n²`.
+//! baseline is tuned: Perrusquía eq (38) asks for `det(λI − A + BK) = λ² + 2ξω_nλ + ω_n²`.
 //!
 //! Sign convention: the closed loop is `A − bK`, i.e. `u = −Kx` on the state, or `u = +Ke` on the
-//! paper's error `e = z_d − z` (eq 12 has `ė = Ae − B(u + …)`). The paper writes its feedback as
-//! `u_f = −Ke` next to eq 38, which with its own error definition would give `A + BK`; the gains
-//! here are the ones that realise eq 38 itself.
+//! paper's error `e = z_d − z` (Perrusquía eq (12) has `ė = Ae − B(u + …)`). The paper writes its feedback as
+//! `u_f = −Ke` next to Perrusquía eq (38), which with its own error definition would give `A + BK`; the gains
+//! here are the ones that realise Perrusquía eq (38) itself.
 //!
 //! Ackermann's formula inverts the controllability matrix, so it is meant for the small models
 //! used here (a few states), not as a general-purpose placement routine.
@@ -75,7 +75,7 @@ pub fn characteristic_polynomial(poles: &[Pole]) -> Result<Vec<f64>, PolePlaceme
     Ok(coefficients.split_off(1))
 }
 
-/// Eq 38: `[2ξω_n, ω_n²]` for `λ² + 2ξω_nλ + ω_n²`.
+/// Perrusquía eq (38): `[2ξω_n, ω_n²]` for `λ² + 2ξω_nλ + ω_n²`.
 pub fn second_order_polynomial(
     natural_frequency: f64,
     damping_ratio: f64,
@@ -199,11 +199,11 @@ mod tests {
     }
 
     /// For `ẍ = b·u`, `A − bK = [[0, 1], [−b·k₁, −b·k₂]]` has `λ² + b·k₂λ + b·k₁`, so matching
-    /// eq 38 gives `k₁ = ω_n²/b`, `k₂ = 2ξω_n/b`.
+    /// Perrusquía eq (38) gives `k₁ = ω_n²/b`, `k₂ = 2ξω_n/b`.
     #[test]
     fn eq_38_baseline_on_the_slider() {
         let coefficients = second_order_polynomial(1000f64.sqrt(), 1.0).unwrap();
-        // b = 1/m for the twin's 5 kg ram and the paper's eq 36 value.
+        // b = 1/m for the twin's 5 kg ram and the value of Perrusquía eq (36).
         for b in [1.0 / 5.0, 2222.22] {
             let (a, bm) = slider(b);
             let k = ackermann(&a, &bm, &coefficients).unwrap();

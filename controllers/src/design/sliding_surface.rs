@@ -1,23 +1,23 @@
-//! Optimal sliding hyperplane `s = C·e` (Whitworth paper §5.2, eqs 13–26).
+//! Optimal sliding hyperplane `s = C·e` (Whitworth paper §5.2, Perrusquía eqs (13)–(26)).
 //!
 //! Construction, for `ė = Ae − B(u + …)` with B (n×m) of full column rank:
-//! 1. Regular form (eqs 14–16): `Ψ = T·e` with `T = [N; B†]`, where the rows of `N` are an
+//! 1. Regular form (Perrusquía eqs (14)–(16)): `Ψ = T·e` with `T = [N; B†]`, where the rows of `N` are an
 //!    orthonormal basis of the left null space of B (`N·B = 0`) and `B† = (BᵀB)⁻¹Bᵀ`; then
-//!    `T·B = [0; I]`, `T⁻¹ = [Nᵀ, B]`, and `Ā = T·A·T⁻¹` splits into `A₁₁ … A₂₂` (eq 17).
-//! 2. The cost `∫ eᵀQe` (eq 20) in the new coordinates (eq 21) has weight `T⁻ᵀ·Q·T⁻¹`, split into
+//!    `T·B = [0; I]`, `T⁻¹ = [Nᵀ, B]`, and `Ā = T·A·T⁻¹` splits into `A₁₁ … A₂₂` (Perrusquía eq (17)).
+//! 2. The cost `∫ eᵀQe` (Perrusquía eq (20)) in the new coordinates (Perrusquía eq (21)) has weight `T⁻ᵀ·Q·T⁻¹`, split into
 //!    `Q₁₁, Q₁₂, Q₂₂`.
-//! 3. With `Ψ₂` as the input of the `Ψ₁` subsystem, the change `v = Ψ₂ + Q₂₂⁻¹Q₁₂ᵀΨ₁` (eq 22)
-//!    removes the cross term: `Ψ̇₁ = (A₁₁ − A₁₂Q₂₂⁻¹Q₁₂ᵀ)Ψ₁ + A₁₂v` (eq 23) with cost
-//!    `∫ Ψ₁ᵀQ̄Ψ₁ + vᵀQ₂₂v`, `Q̄ = Q₁₁ − Q₁₂Q₂₂⁻¹Q₁₂ᵀ` (eq 24).
-//! 4. That LQR problem (eq 25, Riccati solution `P`) gives `Ψ₂ = −C₁Ψ₁`,
-//!    `C₁ = Q₂₂⁻¹(A₁₂ᵀP + Q₁₂ᵀ)` (eq 26); with `C₂ = I` (eq 19) the hyperplane in the original
+//! 3. With `Ψ₂` as the input of the `Ψ₁` subsystem, the change `v = Ψ₂ + Q₂₂⁻¹Q₁₂ᵀΨ₁` (Perrusquía eq (22))
+//!    removes the cross term: `Ψ̇₁ = (A₁₁ − A₁₂Q₂₂⁻¹Q₁₂ᵀ)Ψ₁ + A₁₂v` (Perrusquía eq (23)) with cost
+//!    `∫ Ψ₁ᵀQ̄Ψ₁ + vᵀQ₂₂v`, `Q̄ = Q₁₁ − Q₁₂Q₂₂⁻¹Q₁₂ᵀ` (Perrusquía eq (24)).
+//! 4. That LQR problem (Perrusquía eq (25), Riccati solution `P`) gives `Ψ₂ = −C₁Ψ₁`,
+//!    `C₁ = Q₂₂⁻¹(A₁₂ᵀP + Q₁₂ᵀ)` (Perrusquía eq (26)); with `C₂ = I` (Perrusquía eq (19)) the hyperplane in the original
 //!    error coordinates is `C = [C₁, I]·T = C₁·N + B†`, so `C·B = I` (used in Appendix A).
 //!
-//! Two misprints in the paper are corrected here. Eq 21 writes the transformed weight as
+//! Two misprints in the paper are corrected here. Perrusquía eq (21) writes the transformed weight as
 //! `T·Q·T⁻¹` (a similarity); the cost `eᵀQe = Ψᵀ(T⁻ᵀQT⁻¹)Ψ` needs the congruence. With the
 //! similarity, the slider's sliding pole would come out as `−b·√(q₁/q₂)` — depending on the mass —
-//! instead of the optimum `−√(q₁/q₂)` of `∫ q₁e² + q₂ė²`. Eq 23 prints `A₂₂` where substituting
-//! eq 22 into eq 17 gives `A₁₂`.
+//! instead of the optimum `−√(q₁/q₂)` of `∫ q₁e² + q₂ė²`. Perrusquía eq (23) prints `A₂₂` where substituting
+//! Perrusquía eq (22) into Perrusquía eq (17) gives `A₁₂`.
 
 use super::care::{solve_care, CareError};
 use nalgebra::{Cholesky, DMatrix, SymmetricEigen, SVD};
@@ -33,7 +33,7 @@ pub enum SlidingSurfaceError {
     /// A NaN or infinite entry.
     #[error("sliding-surface input {matrix} has a non-finite entry")]
     NonFinite { matrix: &'static str },
-    /// B must have full column rank for T (eq 15) to be invertible.
+    /// B must have full column rank for T (Perrusquía eq (15)) to be invertible.
     #[error("B must have full column rank (σ_min/σ_max = {ratio:e})")]
     InputRankDeficient { ratio: f64 },
     /// Q must be symmetric positive semidefinite.
@@ -45,31 +45,31 @@ pub enum SlidingSurfaceError {
     /// Slider model or weights out of range.
     #[error("slider design needs {what} > 0 and finite (got {value})")]
     BadSliderParameter { what: &'static str, value: f64 },
-    /// The reduced LQR problem (eq 25) failed.
+    /// The reduced LQR problem (Perrusquía eq (25)) failed.
     #[error("reduced LQR problem of the sliding surface: {0}")]
     Reduced(#[from] CareError),
 }
 
-/// Optimal hyperplane and the intermediate quantities of eqs 14–26.
+/// Optimal hyperplane and the intermediate quantities of Perrusquía eqs (14)–(26).
 #[derive(Debug, Clone, PartialEq)]
 pub struct SlidingHyperplane {
-    /// `C` (m×n) with `s = C·e` (eq 13); `C·B = I`.
+    /// `C` (m×n) with `s = C·e` (Perrusquía eq (13)); `C·B = I`.
     pub c: DMatrix<f64>,
-    /// `T = [N; B†]` (eq 15).
+    /// `T = [N; B†]` (Perrusquía eq (15)).
     pub transform: DMatrix<f64>,
-    /// `C₁` (m×(n−m)) of eq 26.
+    /// `C₁` (m×(n−m)) of Perrusquía eq (26).
     pub c1: DMatrix<f64>,
-    /// Riccati solution `P` of the reduced problem (eq 25); the sliding-motion cost from `Ψ₁(0)`
+    /// Riccati solution `P` of the reduced problem (Perrusquía eq (25)); the sliding-motion cost from `Ψ₁(0)`
     /// is `Ψ₁(0)ᵀPΨ₁(0)`.
     pub riccati: DMatrix<f64>,
     /// `A₁₁ − A₁₂C₁`: the reduced-order dynamics `Ψ̇₁ = (A₁₁ − A₁₂C₁)Ψ₁` while `s = 0`.
     pub sliding_matrix: DMatrix<f64>,
 }
 
-/// Weights of `∫ q_pos·e² + q_vel·ė² dt` (eq 20 with `Q = diag(q_pos, q_vel)`) for the slider.
+/// Weights of `∫ q_pos·e² + q_vel·ė² dt` (Perrusquía eq (20) with `Q = diag(q_pos, q_vel)`) for the slider.
 ///
 /// The optimum sliding motion is `ė = −√(q_pos/q_vel)·e`. The default ratio 1000 puts that pole at
-/// `−√1000 ≈ −31.6 rad/s`, the natural frequency of the paper's eq 38 baseline, so the two designs
+/// `−√1000 ≈ −31.6 rad/s`, the natural frequency of the baseline of Perrusquía eq (38), so the two designs
 /// have the same bandwidth. The paper gives no numeric Q for the OSMC.
 #[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields, default)]
@@ -95,7 +95,7 @@ const PSD_TOL: f64 = 1e-10;
 const RANK_TOL: f64 = 1e-12;
 const DECOMPOSITION_MAX_ITER: usize = 10_000;
 
-/// The slider model of eq 10, `ż = [[0, 1], [0, 0]]·z + [0, 1/m]ᵀ·(u + d)`.
+/// The slider model of Perrusquía eq (10), `ż = [[0, 1], [0, 0]]·z + [0, 1/m]ᵀ·(u + d)`.
 pub fn slider_state_space(mass: f64) -> Result<(DMatrix<f64>, DMatrix<f64>), SlidingSurfaceError> {
     positive("mass", mass)?;
     Ok((
@@ -104,7 +104,7 @@ pub fn slider_state_space(mass: f64) -> Result<(DMatrix<f64>, DMatrix<f64>), Sli
     ))
 }
 
-/// The optimal hyperplane for the slider (eq 10) of mass `mass` kg. In closed form,
+/// The optimal hyperplane for the slider (Perrusquía eq (10)) of mass `mass` kg. In closed form,
 /// `C = m·[√(q_pos/q_vel), 1]` and the sliding pole is `−√(q_pos/q_vel)`.
 pub fn slider_hyperplane(
     mass: f64,
@@ -126,7 +126,7 @@ fn positive(what: &'static str, value: f64) -> Result<(), SlidingSurfaceError> {
 }
 
 /// The hyperplane `C` minimising `∫ eᵀQe` over the sliding motion of `ė = Ae − B(…)`
-/// (eqs 14–26, with the corrections listed in the module docs).
+/// (Perrusquía eqs (14)–(26), with the corrections listed in the module docs).
 pub fn optimal_hyperplane(
     a: &DMatrix<f64>,
     b: &DMatrix<f64>,
@@ -167,7 +167,7 @@ pub fn optimal_hyperplane(
         return Err(SlidingSurfaceError::InputRankDeficient { ratio });
     }
 
-    // Eq 15. Householder QR of [B, I] yields a full orthogonal factor whose first m columns span
+    // Perrusquía eq (15). Householder QR of [B, I] yields a full orthogonal factor whose first m columns span
     // range(B) (B has full rank), so the remaining columns span its orthogonal complement.
     let p = n - m;
     let mut augmented = DMatrix::<f64>::zeros(n, m + n);
@@ -199,7 +199,7 @@ pub fn optimal_hyperplane(
         .copy_from(&null_rows.transpose());
     transform_inv.view_mut((0, p), (n, m)).copy_from(b);
 
-    // Eqs 16–17 and 21 (congruence for the weight).
+    // Perrusquía eqs (16)–(17) and (21) (congruence for the weight).
     let a_bar = &transform * a * &transform_inv;
     let q_bar_full = symmetric_part(&(transform_inv.transpose() * &q * &transform_inv));
     let a11 = a_bar.view((0, 0), (p, p)).into_owned();
@@ -211,13 +211,13 @@ pub fn optimal_hyperplane(
         Cholesky::new(q22.clone()).ok_or(SlidingSurfaceError::InputDirectionsUnweighted)?;
     let q22_inv_q12t = q22_chol.solve(&q12.transpose());
 
-    // Eqs 22–25.
+    // Perrusquía eqs (22)–(25).
     let a_reduced = &a11 - &a12 * &q22_inv_q12t;
     let q_reduced = symmetric_part(&(&q11 - &q12 * &q22_inv_q12t));
     let reduced = solve_care(&a_reduced, &a12, &q_reduced, &q22)?;
     let riccati = reduced.x;
 
-    // Eq 26 and C = [C₁, I]·T.
+    // Perrusquía eq (26) and C = [C₁, I]·T.
     let c1 = q22_chol.solve(&(a12.transpose() * &riccati + q12.transpose()));
     let c = &c1 * &null_rows + &b_pinv;
     let sliding_matrix = &a11 - &a12 * &c1;
@@ -318,7 +318,7 @@ mod tests {
 
     #[test]
     fn slider_pole_does_not_depend_on_mass() {
-        // The paper's eq 36 slider (m₅ = 4.5e-4 kg) and a heavy ram give the same motion.
+        // The slider of Perrusquía eq (36) (m₅ = 4.5e-4 kg) and a heavy ram give the same motion.
         for mass in [4.5e-4, 5.0, 300.0] {
             let h = slider_hyperplane(mass, &SliderWeights::default()).unwrap();
             assert!((h.sliding_matrix[(0, 0)] + 1000f64.sqrt()).abs() < 1e-9);
@@ -329,7 +329,7 @@ mod tests {
     #[test]
     fn cross_weight_leaves_the_slider_surface_unchanged() {
         // ∫ 2q₁₂·e·ė dt = q₁₂·[e²] depends only on the end points, so C must not move. A
-        // similarity-transformed weight (eq 21 as printed) would break this invariance.
+        // similarity-transformed weight (Perrusquía eq (21) as printed) would break this invariance.
         let (a, b) = slider_state_space(2.0).unwrap();
         let plain = optimal_hyperplane(
             &a,

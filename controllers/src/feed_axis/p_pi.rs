@@ -1,5 +1,5 @@
 //! `p-pi`: the P-PI position–velocity cascade with mass and damping feed-forward that Rubio, Ibeas
-//! & Luo take as the CNC baseline for a linear-motor feed axis `m ẍ + b ẋ = F` (their eq (1)).
+//! & Luo take as the CNC baseline for a linear-motor feed axis `m ẍ + b ẋ = F` (Rubio eq (1)).
 //! The paper numbers its equations afresh in each section; "III.(n)" below is eq (n) of its §III.
 //!
 //! The law, every period:
@@ -12,7 +12,7 @@
 //! - F_a = m̂ ẍ_ref + K_p β + F̂_d — acceleration feed-forward, proportional and integral action
 //!   (III.(5));
 //! - F_b = b̂ ẋ̂ — damping compensation (III.(6)), *added*: F_m = F_a + F_b (III.(4)), which
-//!   cancels the guide-way damping `b ẋ` of eq (1) when b̂ = b.
+//!   cancels the guide-way damping `b ẋ` of Rubio eq (1) when b̂ = b.
 //!
 //! The external force enters the plant as F = F_d + F_m (III.(3)), so the integral that the paper
 //! names F̂_d, being added to the command, converges to −F_d: it is the force that cancels the

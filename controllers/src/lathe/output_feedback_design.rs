@@ -1,21 +1,21 @@
 //! Output-feedback power control of the parallel lathe (Sudhakara & Landers, ACC 2003): the
-//! three-step design of eqs (12)–(15), Theorem 1's consistency check, and the global-stability
-//! condition of eq (23).
+//! three-step design of Sudhakara eqs (12)–(15), Theorem 1's consistency check, and the global-stability
+//! condition of Sudhakara eq (23).
 //!
-//! The design works on the linearisation eq (7) about the reference forces:
+//! The design works on the linearisation Sudhakara eq (7) about the reference forces:
 //! ΔḞ = A ΔF + B Δf_c, ΔP = C ΔF with A = diag(−1/τ_i), B = diag(K̄_iα/τ_i), C = [V_1 V_2].
-//! The 1/τ_i in B is what eqs (8), (11) and (12) imply; eq (7a) prints B without it.
+//! The 1/τ_i in B is what Sudhakara eqs (8), (11) and (12) imply; Sudhakara eq (7a) prints B without it.
 //!
 //! Two printing errors in the paper matter here, both checked by the tests below:
-//! - Eq (15), the closed form of H = K C⁺, has the wrong sign on h_1 and lacks the 1/(m_1 m_2)
-//!   of eq (12) in h_2. The gains here are computed as eq (14) says, with nalgebra's
-//!   pseudo-inverse; they reproduce the behaviour of the paper's Figs 4–9, the printed eq (15)
+//! - Sudhakara eq (15), the closed form of H = K C⁺, has the wrong sign on h_1 and lacks the 1/(m_1 m_2)
+//!   of Sudhakara eq (12) in h_2. The gains here are computed as Sudhakara eq (14) says, with nalgebra's
+//!   pseudo-inverse; they reproduce the behaviour of the paper's Figs 4–9, the printed Sudhakara eq (15)
 //!   does not (for m = 1.5 / 1.49 s it makes the reference forces a saddle).
-//! - Eq (23) is printed as h_i ≥ f_ni/P_max, but its own derivation (the zero-feed line of
-//!   eq (21) at P = P_max + f_ni/h_i must not enter the positive quadrant) and the Lyapunov
-//!   gains of eq (26) (h_i = −f_ni/P_max) give h_i ≥ −f_ni/P_max, the form checked here.
+//! - Sudhakara eq (23) is printed as h_i ≥ f_ni/P_max, but its own derivation (the zero-feed line of
+//!   Sudhakara eq (21) at P = P_max + f_ni/h_i must not enter the positive quadrant) and the Lyapunov
+//!   gains of Sudhakara eq (26) (h_i = −f_ni/P_max) give h_i ≥ −f_ni/P_max, the form checked here.
 //!
-//! Theorem 1 does not hold for eq (12)'s K in general: K C⁺ C = K needs every row of K parallel
+//! Theorem 1 does not hold for Sudhakara eq (12)'s K in general: K C⁺ C = K needs every row of K parallel
 //! to C, i.e. τ_1 = V_2/V_1 and τ_2(m_1 + m_2) − m_1 m_2 = τ_1 τ_2. For Table 1 it fails, so the
 //! output feedback does not place the poles at −1/m_i; [`Consistency::Report`] keeps the design
 //! (as the paper did) and reports the poles it does place.
@@ -59,34 +59,34 @@ impl Default for DesignSpec {
     }
 }
 
-/// Eq (23) evaluated for a gain set: are the zero-feed lines of eq (21) kept out of the positive
+/// Sudhakara eq (23) evaluated for a gain set: are the zero-feed lines of Sudhakara eq (21) kept out of the positive
 /// force quadrant, which makes the reference forces the only rest point there?
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct GlobalStabilityCheck {
     /// H, m/(rev·W).
     pub power_gains: [f64; TOOLS],
-    /// −f_ni/P_max, the least gain eq (23) allows, m/(rev·W).
+    /// −f_ni/P_max, the least gain Sudhakara eq (23) allows, m/(rev·W).
     pub lower_bounds: [f64; TOOLS],
-    /// Eq (21): spindle power at which tool i's commanded feed reaches zero (None for h_i = 0,
+    /// Sudhakara eq (21): spindle power at which tool i's commanded feed reaches zero (None for h_i = 0,
     /// whose feed never changes), W.
     pub zero_feed_powers: [Option<f64>; TOOLS],
-    /// Both gains meet eq (23): a sufficient, not necessary, condition.
+    /// Both gains meet Sudhakara eq (23): a sufficient, not necessary, condition.
     pub satisfied: bool,
 }
 
-/// The design of Steps 2–3 with the checks of Theorem 1 and eq (23).
+/// The design of Steps 2–3 with the checks of Theorem 1 and Sudhakara eq (23).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct OutputFeedbackDesign {
     pub spec: DesignSpec,
-    /// K of eq (12), Δf_c = −K ΔF, m/(rev·N).
+    /// K of Sudhakara eq (12), Δf_c = −K ΔF, m/(rev·N).
     pub state_feedback: [[f64; 2]; 2],
-    /// H = K C⁺ of eq (14), Δf_c = −H ΔP, m/(rev·W).
+    /// H = K C⁺ of Sudhakara eq (14), Δf_c = −H ΔP, m/(rev·W).
     pub power_gains: [f64; TOOLS],
     /// ‖K C⁺ C − K‖ / ‖K‖ (Frobenius): zero when Theorem 1's consistency holds.
     pub consistency_residual: f64,
     /// Eigenvalues of A − B K: −1/m_i by construction.
     pub state_feedback_poles: [Eigenvalue; 2],
-    /// Eigenvalues of A − B H C, eq (10): the poles the output feedback really places.
+    /// Eigenvalues of A − B H C, Sudhakara eq (10): the poles the output feedback really places.
     pub output_feedback_poles: [Eigenvalue; 2],
     pub global_stability: GlobalStabilityCheck,
 }
@@ -110,7 +110,7 @@ pub enum DesignError {
     PseudoInverse(&'static str),
 }
 
-/// Steps 1–3: K from eq (12), H = K C⁺ from eq (14), Theorem 1 checked, eq (23) evaluated.
+/// Steps 1–3: K from Sudhakara eq (12), H = K C⁺ from Sudhakara eq (14), Theorem 1 checked, Sudhakara eq (23) evaluated.
 pub fn design(lathe: &Lathe, spec: &DesignSpec) -> Result<OutputFeedbackDesign, DesignError> {
     for (i, m) in spec.time_constants.iter().enumerate() {
         if !(m.is_finite() && *m > 0.0) {
@@ -128,7 +128,7 @@ pub fn design(lathe: &Lathe, spec: &DesignSpec) -> Result<OutputFeedbackDesign, 
     let a = Matrix2::new(-1.0 / tau1, 0.0, 0.0, -1.0 / tau2);
     let b = Matrix2::new(slope1 / tau1, 0.0, 0.0, slope2 / tau2);
     let c = Matrix1x2::new(v1, v2);
-    // Eq (12): puts A − B K in companion form with characteristic polynomial
+    // Sudhakara eq (12): puts A − B K in companion form with characteristic polynomial
     // (s + 1/m_1)(s + 1/m_2).
     let k = Matrix2::new(
         -1.0 / slope1,
@@ -160,7 +160,7 @@ pub fn design(lathe: &Lathe, spec: &DesignSpec) -> Result<OutputFeedbackDesign, 
     })
 }
 
-/// Eq (23) with the sign its derivation implies: h_i ≥ −f_ni/P_max for both tools.
+/// Sudhakara eq (23) with the sign its derivation implies: h_i ≥ −f_ni/P_max for both tools.
 pub fn global_stability(lathe: &Lathe, power_gains: [f64; TOOLS]) -> GlobalStabilityCheck {
     let max_power = lathe.params().max_spindle_power;
     let nominal = lathe.nominal_feeds();
@@ -251,7 +251,7 @@ mod tests {
         ] {
             let design = paper_design(m1, m2);
             let [h1, h2] = design.power_gains;
-            // K C⁺ worked by hand from eq (12).
+            // K C⁺ worked by hand from Sudhakara eq (12).
             assert_close(h1, -(v1 + tau1 * v2) / (s1 * speeds_squared), 1e-20);
             let h2_by_hand =
                 (tau2 * v1 + (tau2 * (m1 + m2) - m1 * m2) * v2) / (m1 * m2 * s2 * speeds_squared);
@@ -259,11 +259,11 @@ mod tests {
             // mm/kW = 1e-6 m/W.
             assert_close(h1 * 1e6, expected_mm_per_kw[0], 1e-6);
             assert_close(h2 * 1e6, expected_mm_per_kw[1], 1e-6);
-            // The printed eq (15) flips h_1's sign.
+            // The printed Sudhakara eq (15) flips h_1's sign.
             let printed_h1 = (v1 + tau1 * v2) / (s1 * speeds_squared);
             assert!(printed_h1 > 0.0 && h1 < 0.0);
         }
-        // Taken literally, eq (15) for m = 1.5 / 1.49 s turns the reference forces into a saddle,
+        // Taken literally, Sudhakara eq (15) for m = 1.5 / 1.49 s turns the reference forces into a saddle,
         // unlike the paper's own Figs 5 and 7, so it cannot be what the paper simulated.
         let (m1, m2) = (1.5, 1.49);
         let printed = [
@@ -292,7 +292,7 @@ mod tests {
         assert_eq!(paper_design(0.5, 0.49).output_feedback_poles, achieved);
     }
 
-    /// Theorem 1 holds for eq (12) when the rows of K are parallel to C = [V_1 V_2]:
+    /// Theorem 1 holds for Sudhakara eq (12) when the rows of K are parallel to C = [V_1 V_2]:
     /// τ_1 = V_2/V_1 (= 2 for Table 1's diameters) and τ_2(m_1 + m_2) − m_1 m_2 = τ_1 τ_2,
     /// e.g. τ_2 = 1 s with m = 0.5 s, 3 s. Then H = K C⁺ places the poles exactly.
     #[test]
@@ -333,7 +333,7 @@ mod tests {
         assert_close(only.eigenvalues[1].re, -4.432, 1e-3);
         let portrait = portrait(&power_loop);
         assert!(portrait.non_converging_initial_forces().is_empty());
-        // Eq (23) is only sufficient: these gains miss it (tool 2's zero-feed line crosses the
+        // Sudhakara eq (23) is only sufficient: these gains miss it (tool 2's zero-feed line crosses the
         // quadrant at 4.15 kW) yet the loop still converges from everywhere.
         assert!(!design.global_stability.satisfied);
         assert_close(
@@ -375,14 +375,14 @@ mod tests {
         assert_eq!(idle.forces[1], 0.0);
         assert_close(idle.forces[0], 1809.7, 0.1);
 
-        // The saddle sits above tool 2's zero-feed line of eq (21) (7.95 kW), 11.89 kW.
+        // The saddle sits above tool 2's zero-feed line of Sudhakara eq (21) (7.95 kW), 11.89 kW.
         let zero_feed_power = design.global_stability.zero_feed_powers[1].unwrap();
         assert_close(zero_feed_power, 7953.2, 0.1);
         assert!(saddle.spindle_power > zero_feed_power);
         assert_close(saddle.spindle_power, 11886.6, 0.1);
 
         // R_a's boundary by the reverse-trajectory method: nearly the constant-power line through
-        // the saddle, parallel to the saturation line (eq (22)).
+        // the saddle, parallel to the saturation line (Sudhakara eq (22)).
         let window = ForceBox {
             min: [0.0, 0.0],
             max: [5000.0, 5000.0],
@@ -442,7 +442,7 @@ mod tests {
         assert_close(widest[1], 1250.0, 0.1);
     }
 
-    /// Eq (23): with h_2 raised to −f_n2/P_max tool 2's zero-feed line passes through the origin,
+    /// Sudhakara eq (23): with h_2 raised to −f_n2/P_max tool 2's zero-feed line passes through the origin,
     /// the saddle and the idle rest point vanish, and every positive start converges.
     #[test]
     fn gains_meeting_eq23_remove_the_failing_region() {

@@ -2,10 +2,10 @@
 //! the drives it needs, all acting through joint efforts.
 //!
 //! Three loops, outermost first:
-//! - **Power loop**, eqs (9), (18)–(20): f_ci = sat(f_ni − h_i (P − P_max)), 0 ≤ f_ci ≤ f_max, on
-//!   the measured spindle power P. H comes from [`output_feedback_design::design`] (eqs (12)–(14))
+//! - **Power loop**, Sudhakara eqs (9), (18)–(20): f_ci = sat(f_ni − h_i (P − P_max)), 0 ≤ f_ci ≤ f_max, on
+//!   the measured spindle power P. H comes from [`output_feedback_design::design`] (Sudhakara eqs (12)–(14))
 //!   for the time constants m_1, m_2, or is given directly.
-//! - **Feed servos**, eq (2): slide i must follow the slide speed v_ci = f_ci · n (n the measured
+//! - **Feed servos**, Sudhakara eq (2): slide i must follow the slide speed v_ci = f_ci · n (n the measured
 //!   spindle speed in rev/s) as f_i/f_ci = 1/(τ_i s + 1). On a slide of mass m driven by a force,
 //!   m v̇ = u − F_i, the law u = k_p (b v_c − v) + k_i ∫(v_c − v) dt + F_i (the measured cutting
 //!   force fed forward) with k_p = m (1/τ + p), k_i = m p / τ and set-point weight b = 1/(1 + p τ)
@@ -15,9 +15,9 @@
 //!   k_p = 2ζω_n J, k_i = ω_n² J) plus the cutting torque P/ω fed forward.
 //!
 //! The start: the slides wait until the spindle is within 1 % of N_s, then approach at the feeds
-//! that make eq (1) give `initial_forces` (eq (6) inverted). Each tool meets the part at that feed
+//! that make Sudhakara eq (1) give `initial_forces` (Sudhakara eq (6) inverted). Each tool meets the part at that feed
 //! and so starts cutting at its initial force; once both tools cut the power loop closes. The
-//! reduced model of eq (17) started at those forces is what the run is compared with.
+//! reduced model of Sudhakara eq (17) started at those forces is what the run is compared with.
 
 use super::output_feedback_design::{
     self, Consistency, DesignError, DesignSpec, GlobalStabilityCheck,
@@ -47,13 +47,13 @@ pub struct LatheForceParams {
     /// The controller's model of the lathe (Table 1 by default): cutting law, servo time
     /// constants τ_i, N_s, P_max and the feed limit f_max.
     pub lathe: LatheParams,
-    /// m_1, m_2: design time constants of eq (12), s.
+    /// m_1, m_2: design time constants of Sudhakara eq (12), s.
     pub time_constants: [f64; TOOLS],
     /// Theorem 1's consistency: `report` keeps the design when it fails (as Table 1's does).
     pub consistency: Consistency,
     /// H = (h_1, h_2), m/(rev·W) (1 mm/kW = 1e-6 m/(rev·W)); given, it replaces the design.
     pub power_gains: Option<[f64; TOOLS]>,
-    /// Forces the tools meet the part with, N; default the reference forces of eq (5).
+    /// Forces the tools meet the part with, N; default the reference forces of Sudhakara eq (5).
     pub initial_forces: Option<[f64; TOOLS]>,
     /// Slide masses the feed servos are designed for, as seen along the feed (carriage plus the
     /// drive's reflected rotor and screw), kg.
@@ -106,7 +106,7 @@ pub struct LatheForceDesign {
     pub power_gains: [f64; TOOLS],
     /// The output-feedback design behind H (None when H was given).
     pub output_feedback: Option<output_feedback_design::OutputFeedbackDesign>,
-    /// Eq (23) for H.
+    /// Sudhakara eq (23) for H.
     pub global_stability: GlobalStabilityCheck,
     /// Approach feeds, m/rev.
     pub approach_feeds: [f64; TOOLS],
@@ -116,7 +116,7 @@ pub struct LatheForceDesign {
     pub spindle_ki: f64,
 }
 
-/// The lathe, H (eqs (12)–(14) or given), eq (23), the approach feeds and the drive gains.
+/// The lathe, H (Sudhakara eqs (12)–(14) or given), Sudhakara eq (23), the approach feeds and the drive gains.
 pub fn design(params: &LatheForceParams) -> Result<LatheForceDesign, ControllerError> {
     let lathe = Lathe::new(params.lathe).map_err(|e| {
         let message = e.to_string();
@@ -167,7 +167,7 @@ pub fn design(params: &LatheForceParams) -> Result<LatheForceDesign, ControllerE
     })
 }
 
-/// Eqs (12)–(14) for the time constants m_1, m_2, with Theorem 1's consistency as asked.
+/// Sudhakara eqs (12)–(14) for the time constants m_1, m_2, with Theorem 1's consistency as asked.
 fn output_feedback(
     lathe: &Lathe,
     params: &LatheForceParams,
@@ -210,8 +210,8 @@ fn output_feedback(
     })
 }
 
-/// The feeds the tools approach the part with, m/rev: those that make eq (1) give
-/// `initial_forces` (eq (6) inverted), by default the reference forces' nominal feeds.
+/// The feeds the tools approach the part with, m/rev: those that make Sudhakara eq (1) give
+/// `initial_forces` (Sudhakara eq (6) inverted), by default the reference forces' nominal feeds.
 fn approach_feeds(
     lathe: &Lathe,
     initial_forces: Option<[f64; TOOLS]>,
@@ -271,7 +271,7 @@ pub struct LatheForce {
     spindle_integral: f64,
     slide_integrals: [f64; TOOLS],
     commanded_feeds: [f64; TOOLS],
-    /// Which limit of eq (20) each commanded feed sits on, if any.
+    /// Which limit of Sudhakara eq (20) each commanded feed sits on, if any.
     feed_limits: [Option<&'static str>; TOOLS],
     slide_speed_commands: [f64; TOOLS],
     power_error: f64,
@@ -300,7 +300,7 @@ impl LatheForce {
         &self.design
     }
 
-    /// The events a reset raises: how H came about and whether eq (23) holds.
+    /// The events a reset raises: how H came about and whether Sudhakara eq (23) holds.
     fn design_events(&self) -> Vec<Event> {
         let mut events = Vec::new();
         let [h1, h2] = self.design.power_gains;
@@ -356,7 +356,7 @@ impl LatheForce {
             .clamp(-limit, limit)
     }
 
-    /// Eq (20) on the measured power, with an event when a feed reaches or leaves a limit.
+    /// Sudhakara eq (20) on the measured power, with an event when a feed reaches or leaves a limit.
     fn power_loop(&mut self, time: f64, power: f64) {
         let lathe = &self.design.lathe;
         let max_feed = lathe.params().max_feed;

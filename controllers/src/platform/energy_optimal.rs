@@ -1,18 +1,18 @@
 //! `energy-optimal`: optimal control of the two-wheeled platform at the kinetic-energy performance
-//! index (Kalinski et al. 2013, §2 and §4, eqs 19–21), through the two wheel torques.
+//! index (Kalinski et al. 2013, §2 and §4, Kaliński eqs (19)–(21)), through the two wheel torques.
 //!
 //! Model: `M* q̈ + L* q̇ = u` in wheel-rate coordinates q̇ = (φ̇_L, φ̇_R) (M* derived in
-//! [`crate::platform::model`], L* = `wheel_damping`·I), state x = (q̇, q) as in eq (1), so
+//! [`crate::platform::model`], L* = `wheel_damping`·I), state x = (q̇, q) as in Kaliński eq (1), so
 //! `A = [[−M*⁻¹L*, 0], [I, 0]]`, `B = [M*⁻¹; 0]`.
 //!
-//! Index (eq 20): `J = ½ eᵀ Q₁ M* e + ½ uᵀ R u` with `e = q̇ − q̄̇ − q̂̇`, q̄̇ the wheel rates of the
-//! path's velocities of H and q̂̇ those of the correcting velocities (eq 19), both by inverse
+//! Index (Kaliński eq (20)): `J = ½ eᵀ Q₁ M* e + ½ uᵀ R u` with `e = q̇ − q̄̇ − q̂̇`, q̄̇ the wheel rates of the
+//! path's velocities of H and q̂̇ those of the correcting velocities (Kaliński eq (19)), both by inverse
 //! kinematics at the odometry heading.
 //!
-//! Law (eq 21): `u = −(R + Rᵀ)⁻¹ Γᵀ (M*ᵀQ₁ᵀ + Q₁M*) e` with Γ = T₁∫Φ B dτ over the sampling
+//! Law (Kaliński eq (21)): `u = −(R + Rᵀ)⁻¹ Γᵀ (M*ᵀQ₁ᵀ + Q₁M*) e` with Γ = T₁∫Φ B dτ over the sampling
 //! interval Δt — read here as the effect on q̇ at the end of the interval of a command held over
 //! it, `Γ = ∫₀^Δt e^{−M*⁻¹L* σ} dσ · M*⁻¹` (computed from the exponential of the block matrix
-//! `[[−M*⁻¹L*, M*⁻¹], [0, 0]]·Δt`). Then each torque is clipped to U (eq 10).
+//! `[[−M*⁻¹L*, M*⁻¹], [0, 0]]·Δt`). Then each torque is clipped to U (Kaliński eq (10)).
 //!
 //! With Q₁ = q₁·I and R = ρ·I the gain is about q₁Δt/ρ·I: a proportional law on the wheel-rate
 //! error, shaped by M* (its coupling term acts when L* ≠ 0 or Q₁ is not scalar).
@@ -37,13 +37,13 @@ pub struct EnergyOptimalParams {
     pub q1: [f64; 2],
     /// R = r·I, rad/(N·m): weight of the command.
     pub r: f64,
-    /// k: scaling of the correction time k·Δt in eq (19).
+    /// k: scaling of the correction time k·Δt in Kaliński eq (19).
     pub k: f64,
-    /// Δt, s: the sampling interval of eqs (19) and (21); set it to the control period.
+    /// Δt, s: the sampling interval of Kaliński eqs (19) and (21); set it to the control period.
     pub sampling_interval: f64,
     /// L*: viscous friction of each wheel drive, N·m·s/rad.
     pub wheel_damping: f64,
-    /// U of eq (10), N·m (the drive's effort limit applies too).
+    /// U of Kaliński eq (10), N·m (the drive's effort limit applies too).
     pub torque_limit: f64,
 }
 
@@ -72,7 +72,7 @@ pub struct EnergyOptimalDesign {
     pub gain: Matrix2<f64>,
 }
 
-/// Turns the parameters into the gain of eq (21).
+/// Turns the parameters into the gain of Kaliński eq (21).
 pub fn design(params: &EnergyOptimalParams) -> Result<EnergyOptimalDesign, ControllerError> {
     params.model.validate(NAME)?;
     positive(NAME, "q1.0", params.q1[0])?;

@@ -1,9 +1,9 @@
 //! What both platform controllers do before their law: read the wheel encoders, dead-reckon the
 //! pose (the "incremental measurement"), form the correcting velocities of H (Kalinski et al.
-//! 2013, eq 19) and turn desired plus correcting velocities of H into wheel rates by inverse
+//! 2013, Kaliński eq (19)) and turn desired plus correcting velocities of H into wheel rates by inverse
 //! kinematics.
 //!
-//! Eq (19): `ẋ̂_H = (x̄_H − x_H)/(k·Δt)`, `ẏ̂_H = (ȳ_H − y_H)/(k·Δt)`, with x_H, y_H from odometry
+//! Kaliński eq (19): `ẋ̂_H = (x̄_H − x_H)/(k·Δt)`, `ẏ̂_H = (ȳ_H − y_H)/(k·Δt)`, with x_H, y_H from odometry
 //! (the controller never sees the true pose). The odometry starts at the path's first point and
 //! heading (the platform is placed there).
 
@@ -30,7 +30,7 @@ pub struct Guidance {
     pub wheel_rates: [f64; 2],
 }
 
-/// Encoder odometry and eq (19), bound to a plant.
+/// Encoder odometry and Kaliński eq (19), bound to a plant.
 #[derive(Debug, Clone)]
 pub struct Guide {
     model: PlatformModel,
@@ -140,7 +140,7 @@ impl Guide {
     }
 }
 
-/// Torque limit of eq (10) for both wheels: the smaller of the controller's and the drive's.
+/// Torque limit of Kaliński eq (10) for both wheels: the smaller of the controller's and the drive's.
 pub fn wheel_actuators(
     plant: &PlantInterface,
     torque_limit: f64,

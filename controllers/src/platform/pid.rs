@@ -1,6 +1,6 @@
 //! `pid`: the reference method of Kalinski et al. 2013, §4 — two PID loops, one on the linear
 //! velocity error, one on the angular velocity error of the platform, with the same correcting
-//! velocities of H (eq 19) and inverse kinematics as `energy-optimal`.
+//! velocities of H (Kaliński eq (19)) and inverse kinematics as `energy-optimal`.
 //!
 //! `F = PID_v(v* − v)` (N) and `T = PID_ω(ω* − ω)` (N·m) are shared out to the wheels as
 //! `τ_L = r/2·F − r/(2b)·T`, `τ_R = r/2·F + r/(2b)·T`; the derivative is filtered
@@ -28,9 +28,9 @@ const NAME: &str = "pid";
 #[serde(deny_unknown_fields, default)]
 pub struct PlatformPidParams {
     pub model: PlatformModel,
-    /// k of eq (19).
+    /// k of Kaliński eq (19).
     pub k: f64,
-    /// Δt of eq (19), s.
+    /// Δt of Kaliński eq (19), s.
     pub sampling_interval: f64,
     /// Linear-velocity loop: N per m/s, N per m, N per m/s².
     pub kp_v: f64,

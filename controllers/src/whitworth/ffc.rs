@@ -1,15 +1,15 @@
 //! `ffc`: the paper's feedforward-feedback baseline (§6.1): `u = u_d + u_f` on the slider of
-//! eq (10), with the Jacobian compensator, profile and switching criterion of the OSMC.
+//! Perrusquía eq (10), with the Jacobian compensator, profile and switching criterion of the OSMC.
 //!
-//! **Feedforward (eq 37).** `u_d = B†·(ż_d − A·z_d) = m̄·ÿ_d`, plus the model's gravity carried to
-//! u ([`SliderModel::gravity_input`]): the paper's slider model eq (36) carries its weight as a
-//! known offset, which eq (37) leaves out; the feedforward here includes it, so that the baseline
+//! **Feedforward (Perrusquía eq (37)).** `u_d = B†·(ż_d − A·z_d) = m̄·ÿ_d`, plus the model's gravity carried to
+//! u ([`SliderModel::gravity_input`]): the paper's slider model Perrusquía eq (36) carries its weight as a
+//! known offset, which Perrusquía eq (37) leaves out; the feedforward here includes it, so that the baseline
 //! gets the model knowledge it is "designed in accordance to".
 //!
-//! **Feedback (eq 38).** `det(λI − A + BK) = λ² + 2ξω_nλ + ω_n²` with the paper's ω_n² = 1000,
+//! **Feedback (Perrusquía eq (38)).** `det(λI − A + BK) = λ² + 2ξω_nλ + ω_n²` with the paper's ω_n² = 1000,
 //! ξ = 1, by Ackermann's formula: `K = m̄·[ω_n², 2ξω_n]`. The paper writes `u_f = −K·e`; with its
 //! `e = z_d − z` that would place the roots of `det(λI − A − BK)`, so the feedback here is
-//! `u_f = +K·e`, which realises eq (38) itself.
+//! `u_f = +K·e`, which realises Perrusquía eq (38) itself.
 
 use super::slider::SliderModel;
 use super::task::{LawInput, TaskController, TaskDesign, TaskLaw, TaskParams};
@@ -23,9 +23,9 @@ use serde::Deserialize;
 #[derive(Debug, Clone, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields, default)]
 pub struct FfcParams {
-    /// ω_n of eq (38), rad/s.
+    /// ω_n of Perrusquía eq (38), rad/s.
     pub natural_frequency: f64,
-    /// ξ of eq (38).
+    /// ξ of Perrusquía eq (38).
     pub damping_ratio: f64,
     pub task: TaskParams,
 }
@@ -40,7 +40,7 @@ impl Default for FfcParams {
     }
 }
 
-/// `K` of eq (38) for the slider with mass m̄: N/m, N·s/m.
+/// `K` of Perrusquía eq (38) for the slider with mass m̄: N/m, N·s/m.
 pub fn design(params: &FfcParams, slider: &SliderModel) -> Result<[f64; 2], ControllerError> {
     let wn = positive("ffc", "natural_frequency", params.natural_frequency)?;
     let zeta = non_negative("ffc", "damping_ratio", params.damping_ratio)?;

@@ -1,6 +1,6 @@
-//! `lqt`: the paper's linear-quadratic tracking baseline (§6.1): the feedforward of eq (37) (with
-//! the model's gravity, as in [`ffc`](super::ffc)) plus the LQR feedback minimising eq (39),
-//! `∫ eᵀQe + R·u_f² dt`, for the slider of eq (10); same compensator, profile and switching.
+//! `lqt`: the paper's linear-quadratic tracking baseline (§6.1): the feedforward of Perrusquía eq (37) (with
+//! the model's gravity, as in [`ffc`](super::ffc)) plus the LQR feedback minimising Perrusquía eq (39),
+//! `∫ eᵀQe + R·u_f² dt`, for the slider of Perrusquía eq (10); same compensator, profile and switching.
 //!
 //! The paper prints neither Q nor R. Q defaults to the OSMC's `diag(1000, 1)`; R is given
 //! relative to the slider's inertia, `R = r/m̄²` (a weight on the feedback's acceleration
@@ -23,9 +23,9 @@ use serde::Deserialize;
 #[derive(Debug, Clone, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields, default)]
 pub struct LqtParams {
-    /// Q of eq (39).
+    /// Q of Perrusquía eq (39).
     pub weights: SliderWeights,
-    /// r, with `R = r/m̄²` in eq (39).
+    /// r, with `R = r/m̄²` in Perrusquía eq (39).
     pub input_weight: f64,
     pub task: TaskParams,
 }

@@ -1,13 +1,13 @@
 //! `osmc`: the paper's task-space optimal sliding-mode controller (§5) with the Jacobian
-//! compensator (eq 33) in the cutting stroke and the open-loop return (§3, §6.2).
+//! compensator (Perrusquía eq (33)) in the cutting stroke and the open-loop return (§3, §6.2).
 //!
-//! **Surface.** `s = C·e` (eq 13) with the Riccati-optimal hyperplane of eqs 14–26 for the slider
-//! of eq (10) with mass m̄ and the cost `∫ eᵀQe` (eq 20), `Q = diag(q_pos, q_vel)`
+//! **Surface.** `s = C·e` (Perrusquía eq (13)) with the Riccati-optimal hyperplane of Perrusquía eqs (14)–(26) for the slider
+//! of Perrusquía eq (10) with mass m̄ and the cost `∫ eᵀQe` (Perrusquía eq (20)), `Q = diag(q_pos, q_vel)`
 //! ([`crate::design::slider_hyperplane`]): `C = m̄·[√(q_pos/q_vel), 1]`, so on `s = 0` the error
 //! decays as `ė = −√(q_pos/q_vel)·e`. The paper prints no Q; the default ratio 1000 puts the
-//! sliding pole at −31.6 rad/s, the bandwidth of the paper's FFC baseline (eq 38, ω_n² = 1000).
+//! sliding pole at −31.6 rad/s, the bandwidth of the paper's FFC baseline (Perrusquía eq (38), ω_n² = 1000).
 //!
-//! **Law (eqs 27–30).** `σ = s(e) − s(e(t₀))·exp(−λ(t − t₀))`, `k̇_x = sign(σ)`,
+//! **Law (Perrusquía eqs (27)–(30)).** `σ = s(e) − s(e(t₀))·exp(−λ(t − t₀))`, `k̇_x = sign(σ)`,
 //! `s_x = σ + k₂·k_x`, `u = k₁·s_x`. t₀ is the start of each cutting stroke (or of the run, when
 //! tracking), so σ starts at zero on every stroke. k_x is kept from one stroke to the next (it is
 //! what learns the cutting force and the weight) and frozen while the torque is clipped and σ
@@ -19,7 +19,7 @@
 //! workpiece) ten times faster than the sliding motion while `k₁·T = 0.4` keeps the 1 ms sampled
 //! loop well damped; k₂ = 15 N lets the integral term move u by `k₁·k₂ = 6 kN/s`, enough to take
 //! up the 400 N contact force within about 70 ms. λ = 20 s⁻¹ fades the start-up offset of σ
-//! over the first blend (t_a = 0.133 s). Theorem 1 (eq 32, A.6) bounds |s_x| ultimately by
+//! over the first blend (t_a = 0.133 s). Theorem 1 (Perrusquía eq (32), A.6) bounds |s_x| ultimately by
 //! `η̄/k₁`, η̄ bounding the unknown terms in N: with some 400 N of them here, 1 N·s, i.e. at most
 //! `1/m̄ ≈ 0.05 m/s` on the surface until the integral term takes the steady part up. (The
 //! paper's own check, k₁ ≥ ‖ρ_y·F_y + m₅·g‖, compares 1/s with N and is not used.)
@@ -36,13 +36,13 @@ use serde::Deserialize;
 #[derive(Debug, Clone, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields, default)]
 pub struct OsmcParams {
-    /// k₁ of eq (27), 1/s.
+    /// k₁ of Perrusquía eq (27), 1/s.
     pub k1: f64,
-    /// k₂ of eq (30), N.
+    /// k₂ of Perrusquía eq (30), N.
     pub k2: f64,
-    /// λ of eq (29), 1/s.
+    /// λ of Perrusquía eq (29), 1/s.
     pub reaching_rate: f64,
-    /// Q of eq (20).
+    /// Q of Perrusquía eq (20).
     pub weights: SliderWeights,
     pub task: TaskParams,
 }
@@ -59,10 +59,10 @@ impl Default for OsmcParams {
     }
 }
 
-/// Gains of the second-order sliding law (eqs 27–30) on a hyperplane.
+/// Gains of the second-order sliding law (Perrusquía eqs (27)–(30)) on a hyperplane.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SecondOrderGains {
-    /// `C` of eq (13): kg, kg/s.
+    /// `C` of Perrusquía eq (13): kg, kg/s.
     pub surface: [f64; 2],
     pub k1: f64,
     pub k2: f64,
@@ -85,7 +85,7 @@ pub(crate) fn second_order_gains(
     })
 }
 
-/// Checks the weights of Q (eq 20) for `controller`: both finite and > 0.
+/// Checks the weights of Q (Perrusquía eq (20)) for `controller`: both finite and > 0.
 pub(crate) fn check_weights(
     controller: &str,
     weights: &SliderWeights,
@@ -117,7 +117,7 @@ pub fn design(
     )
 }
 
-/// The law of eqs (27)–(30) on the surface `s = C·e`.
+/// The law of Perrusquía eqs (27)–(30) on the surface `s = C·e`.
 #[derive(Debug, Clone, PartialEq)]
 pub struct SecondOrderSliding {
     label: &'static str,
@@ -181,13 +181,13 @@ impl TaskLaw for SecondOrderSliding {
     fn force(&mut self, input: &LawInput) -> f64 {
         let g = self.gains;
         self.s = self.surface(input.error);
-        // Eq (29).
+        // Perrusquía eq (29).
         self.sigma =
             self.s - self.start_surface * (-g.reaching_rate * (input.time - self.start)).exp();
-        // Eqs (30), (27).
+        // Perrusquía eqs (30), (27).
         self.s_x = self.sigma + g.k2 * self.k_x;
         let force = g.k1 * self.s_x;
-        // Eq (28), explicit Euler, frozen while clipped and pushing outwards.
+        // Perrusquía eq (28), explicit Euler, frozen while clipped and pushing outwards.
         let step = sign(self.sigma);
         if force.abs() < input.force_limit || step * force < 0.0 {
             self.k_x += step * input.period;

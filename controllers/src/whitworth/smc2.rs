@@ -1,9 +1,9 @@
-//! `smc2`: the paper's second-order SMC baseline (§6.1): the law of eqs (27)–(30), exactly as in
+//! `smc2`: the paper's second-order SMC baseline (§6.1): the law of Perrusquía eqs (27)–(30), exactly as in
 //! [`osmc`](super::osmc), on a hand-set hyperplane `s = m̄·(ė + c·e)` instead of the Riccati-optimal
 //! one, with the same compensator, profile and switching criterion.
 //!
-//! The paper does not print the baseline's surface. For the slider of eq (10) every hyperplane with
-//! `C·B = 1` has the form `m̄·[c, 1]`, and the optimal one of eqs 14–26 is `c = √(q_pos/q_vel)`: an
+//! The paper does not print the baseline's surface. For the slider of Perrusquía eq (10) every hyperplane with
+//! `C·B = 1` has the form `m̄·[c, 1]`, and the optimal one of Perrusquía eqs (14)–(26) is `c = √(q_pos/q_vel)`: an
 //! SMC2 with slope c *is* the OSMC for `Q = diag(c², 1)`. What the comparison can show is therefore
 //! what the Riccati design's choice of slope buys over a hand-set one; the default `c = 10 s⁻¹`
 //! stands for a conventional hand tuning (a sliding motion about three times slower than the
@@ -23,11 +23,11 @@ use serde::Deserialize;
 pub struct Smc2Params {
     /// c of `s = m̄·(ė + c·e)`, 1/s.
     pub surface_slope: f64,
-    /// k₁ of eq (27), 1/s.
+    /// k₁ of Perrusquía eq (27), 1/s.
     pub k1: f64,
-    /// k₂ of eq (30), N.
+    /// k₂ of Perrusquía eq (30), N.
     pub k2: f64,
-    /// λ of eq (29), 1/s.
+    /// λ of Perrusquía eq (29), 1/s.
     pub reaching_rate: f64,
     pub task: TaskParams,
 }

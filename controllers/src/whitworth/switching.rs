@@ -3,7 +3,7 @@
 //! **Stroke recognition.** The ram moves one way in the cutting stroke and the other way in the
 //! return stroke; the cutting direction is known off-line (the twin's crank turns clockwise, q
 //! falling, and cuts on the way down, ẏ < 0). Comparing the sign of the measured ram velocity
-//! with it tells the strokes apart (eq 1 holds, task-space control is allowed, exactly while they
+//! with it tells the strokes apart (Perrusquía eq (1) holds, task-space control is allowed, exactly while they
 //! agree). Here the comparison is made with a small dead band and, to keep sensor ripple at the
 //! stroke ends from toggling the mode, the ram must also be on the matching half of the stroke:
 //! the cutting stroke is left only past mid-stroke on the cutting side, the return stroke only

@@ -1,9 +1,9 @@
 //! What the four Whitworth task-space controllers share: the task parameters, the reference, the
 //! plant binding, the switching criterion and the Jacobian compensator. Each controller only
 //! supplies its law `u = f(e, …)` on the slider (a [`TaskLaw`]); [`TaskController`] turns it into
-//! crank torque `τ = ρ̂·u` (eqs 11, 33) in the cutting stroke and applies the open-loop return.
+//! crank torque `τ = ρ̂·u` (Perrusquía eqs (11), (33)) in the cutting stroke and applies the open-loop return.
 //!
-//! **Which reference.** `reference = "profile"` builds the Algorithm 1 profile (eqs 2–5) from
+//! **Which reference.** `reference = "profile"` builds the Algorithm 1 profile (Perrusquía eqs (2)–(5)) from
 //! the linkage's stroke ends, `workpiece_length` and `cutting_velocity`, restarts it at each
 //! cutting stroke and uses the switching criterion (the cutting task). `reference = "scenario"`
 //! tracks the scenario's `reference`, `reference_rate`, `reference_acceleration` signals in closed
@@ -236,7 +236,7 @@ pub struct LawInput {
     pub time: f64,
     /// Control period, s.
     pub period: f64,
-    /// `e = z_d − z = [y_d − y, ẏ_d − ẏ]` (eq 12), m and m/s.
+    /// `e = z_d − z = [y_d − y, ẏ_d − ẏ]` (Perrusquía eq (12)), m and m/s.
     pub error: [f64; 2],
     pub reference: ProfileSample,
     /// The model's gravity carried to u ([`SliderModel::gravity_input`]), N.
@@ -245,7 +245,7 @@ pub struct LawInput {
     pub force_limit: f64,
 }
 
-/// A task-space law on the slider of eq (10).
+/// A task-space law on the slider of Perrusquía eq (10).
 pub trait TaskLaw: Send {
     /// The name used in mode events, e.g. `OSMC`.
     fn label(&self) -> &'static str;

@@ -1,6 +1,6 @@
 //! A small stand-in for the twin in the controllers' tests: the reduced model of
 //! `models::whitworth_dynamics` integrated with RK4, the crank torque held over each control
-//! period, the contact force of eq (40) on the ram, and the twin's signal names.
+//! period, the contact force of Perrusquía eq (40) on the ram, and the twin's signal names.
 
 use crate::{Actuator, Controller, EffortKind, Measurement, PlantInterface};
 use models::reference::Reference;
@@ -8,7 +8,7 @@ use models::whitworth::Geometry;
 use models::whitworth_dynamics::{Dynamics, LinkMasses};
 use std::f64::consts::FRAC_PI_2;
 
-/// Eq (40): `force` N upwards while the ram moves down inside `[y_b, y_a]`.
+/// Perrusquía eq (40): `force` N upwards while the ram moves down inside `[y_b, y_a]`.
 #[derive(Debug, Clone, Copy)]
 pub struct Contact {
     pub force: f64,
@@ -17,7 +17,7 @@ pub struct Contact {
 }
 
 impl Contact {
-    /// The paper's 400 N (eq 40) over the twin's workpiece: Algorithm 1's y_a, y_b for L_d = 0.3 m.
+    /// The paper's 400 N (Perrusquía eq (40)) over the twin's workpiece: Algorithm 1's y_a, y_b for L_d = 0.3 m.
     pub const WORKPIECE: Contact = Contact {
         force: 400.0,
         y_a: -0.02907,

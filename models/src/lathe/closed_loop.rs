@@ -1,11 +1,11 @@
-//! The parallel lathe under the paper's power feedback, eqs (16)–(23), and its phase-plane
+//! The parallel lathe under the paper's power feedback, Sudhakara eqs (16)–(23), and its phase-plane
 //! analysis: RK4 trajectories forward and in reverse time, equilibria and their linearised
 //! stability, nullclines, saturation lines, phase portraits and the region-of-attraction boundary
 //! by the reverse-trajectory method. Results are plain data for plotting or recording.
 //!
-//! The commanded feeds follow eqs (19)–(20): f_ci = sat(f_ni − h_i (P − P_max)) with
-//! 0 ≤ f_ci ≤ f_max, and the forces follow eq (3), τ_i Ḟ_i = K̄_i f_ci^α_i − F_i. The paper prints
-//! eqs (16)–(17) without the exponent α_i; eqs (8) and (25) keep it, and so does this model.
+//! The commanded feeds follow Sudhakara eqs (19)–(20): f_ci = sat(f_ni − h_i (P − P_max)) with
+//! 0 ≤ f_ci ≤ f_max, and the forces follow Sudhakara eq (3), τ_i Ḟ_i = K̄_i f_ci^α_i − F_i. The paper prints
+//! Sudhakara eqs (16)–(17) without the exponent α_i; Sudhakara eqs (8) and (25) keep it, and so does this model.
 
 use super::{require_positive, Lathe, LatheError, TOOLS};
 
@@ -19,13 +19,13 @@ const MAX_STEPS: f64 = 1e7;
 const EQUILIBRIUM_SCAN_SAMPLES: usize = 20_000;
 
 /// Relative size (of P_cap, or of f_max) below which a power residual counts as a root and a
-/// commanded feed counts as sitting on a limit of eq (20).
+/// commanded feed counts as sitting on a limit of Sudhakara eq (20).
 const ROUNDING_TOLERANCE: f64 = 1e-12;
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum TimeDirection {
     Forward,
-    /// Integrates Ḟ = −f(F): the paper's reverse trajectory (sign of eq (16) changed).
+    /// Integrates Ḟ = −f(F): the paper's reverse trajectory (sign of Sudhakara eq (16) changed).
     Reverse,
 }
 
@@ -74,12 +74,12 @@ pub fn eigenvalues(matrix: [[f64; 2]; 2]) -> [Eigenvalue; 2] {
     }
 }
 
-/// Which branch of eq (20) a tool's commanded feed is on.
+/// Which branch of Sudhakara eq (20) a tool's commanded feed is on.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum FeedRegime {
     /// The law asks for a feed ≤ 0: the tool dwells at zero feed and stops cutting.
     ZeroFeed,
-    /// The linear law of eq (19) is active.
+    /// The linear law of Sudhakara eq (19) is active.
     Regulating,
     /// Clipped at f_max.
     MaxFeed,
@@ -95,19 +95,19 @@ pub enum EquilibriumKind {
     UnstableFocus,
     /// An eigenvalue on the imaginary axis: the linearisation decides nothing.
     NonHyperbolic,
-    /// A commanded feed sits exactly on a limit of eq (20), where the vector field has a kink
+    /// A commanded feed sits exactly on a limit of Sudhakara eq (20), where the vector field has a kink
     /// (and, with α < 1, an unbounded slope on the zero-feed side): no linearisation applies.
     NonSmooth,
 }
 
-/// A rest point of eq (17): an intersection of the zero sets of (17a) and (17b).
+/// A rest point of Sudhakara eq (17): an intersection of the zero sets of (17a) and (17b).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Equilibrium {
     /// F_1, F_2, N.
     pub forces: [f64; TOOLS],
-    /// Eq (4) there, W.
+    /// Sudhakara eq (4) there, W.
     pub spindle_power: f64,
-    /// Eq (20) there, m/rev.
+    /// Sudhakara eq (20) there, m/rev.
     pub commanded_feeds: [f64; TOOLS],
     pub feed_regimes: [FeedRegime; TOOLS],
     /// ∂Ḟ/∂F, analytic (see [`PowerLoop::jacobian`]), 1/s.
@@ -146,17 +146,17 @@ impl Equilibrium {
     }
 }
 
-/// Which end of eq (20) a saturation line marks.
+/// Which end of Sudhakara eq (20) a saturation line marks.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum FeedLimit {
-    /// Eq (21): the law yields zero feed.
+    /// Sudhakara eq (21): the law yields zero feed.
     Zero,
     /// The law yields f_max.
     Max,
 }
 
 /// A saturation boundary: the line V_1 F_1 + V_2 F_2 = `spindle_power` on which tool `tool`'s
-/// commanded feed reaches `limit`. Its slope is −V_1/V_2 for every tool and gain, eq (22).
+/// commanded feed reaches `limit`. Its slope is −V_1/V_2 for every tool and gain, Sudhakara eq (22).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SaturationLine {
     /// 1 or 2, as numbered in the paper.
@@ -195,7 +195,7 @@ impl SaturationLine {
     }
 }
 
-/// Zero sets of eqs (17a) and (17b) inside a window, each as polylines (a curve leaving and
+/// Zero sets of Sudhakara eqs (17a) and (17b) inside a window, each as polylines (a curve leaving and
 /// re-entering the window gives several).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Nullclines {
@@ -230,7 +230,7 @@ pub struct Trajectory {
     /// States spaced `record_every · step` apart in time, starting with the initial forces.
     pub points: Vec<[f64; TOOLS]>,
     pub final_forces: [f64; TOOLS],
-    /// Ended at the desired equilibrium (the reference forces of eq (5)).
+    /// Ended at the desired equilibrium (the reference forces of Sudhakara eq (5)).
     pub converged: bool,
 }
 
@@ -263,7 +263,7 @@ pub struct ReverseTrajectorySpec {
     pub window: ForceBox,
 }
 
-/// The lathe under the output-feedback law of eq (9) with feed saturation, eq (20).
+/// The lathe under the output-feedback law of Sudhakara eq (9) with feed saturation, Sudhakara eq (20).
 #[derive(Debug, Clone, PartialEq)]
 pub struct PowerLoop {
     lathe: Lathe,
@@ -271,7 +271,7 @@ pub struct PowerLoop {
 }
 
 impl PowerLoop {
-    /// `power_gains` is H = (h_1, h_2) of eq (9): commanded-feed change per watt of spindle-power
+    /// `power_gains` is H = (h_1, h_2) of Sudhakara eq (9): commanded-feed change per watt of spindle-power
     /// error, m/(rev·W) (the paper's mm/kW is 10⁻⁶ of this).
     pub fn new(lathe: Lathe, power_gains: [f64; TOOLS]) -> Result<Self, LatheError> {
         for (i, gain) in power_gains.iter().enumerate() {
@@ -294,17 +294,17 @@ impl PowerLoop {
         self.power_gains
     }
 
-    /// Eq (19) before saturation: f_ni − h_i (P − P_max), m/rev.
+    /// Sudhakara eq (19) before saturation: f_ni − h_i (P − P_max), m/rev.
     pub fn unsaturated_feeds(&self, forces: [f64; TOOLS]) -> [f64; TOOLS] {
         self.feeds_at_power(self.lathe.spindle_power(forces))
     }
 
-    /// Eq (20): the commanded feeds the servos receive, m/rev.
+    /// Sudhakara eq (20): the commanded feeds the servos receive, m/rev.
     pub fn commanded_feeds(&self, forces: [f64; TOOLS]) -> [f64; TOOLS] {
         self.saturate(self.unsaturated_feeds(forces))
     }
 
-    /// Eq (17) with eq (20): Ḟ_i = (K̄_i f_ci^α_i − F_i) / τ_i, N/s.
+    /// Sudhakara eq (17) with Sudhakara eq (20): Ḟ_i = (K̄_i f_ci^α_i − F_i) / τ_i, N/s.
     pub fn force_rates(&self, forces: [f64; TOOLS]) -> [f64; TOOLS] {
         self.lathe.force_rates(forces, self.commanded_feeds(forces))
     }
@@ -334,7 +334,7 @@ impl PowerLoop {
         jacobian
     }
 
-    /// One classical RK4 step of eq (17), forward or in reverse time, N.
+    /// One classical RK4 step of Sudhakara eq (17), forward or in reverse time, N.
     pub fn rk4_step(
         &self,
         forces: [f64; TOOLS],
@@ -372,14 +372,14 @@ impl PowerLoop {
         Ok(points)
     }
 
-    /// The rest point the loop is designed for: the reference forces of eq (5) (the origin of the
-    /// perturbed system, eq (16)).
+    /// The rest point the loop is designed for: the reference forces of Sudhakara eq (5) (the origin of the
+    /// perturbed system, Sudhakara eq (16)).
     pub fn desired_equilibrium(&self) -> Equilibrium {
         self.equilibrium_at(self.lathe.reference_forces())
     }
 
     /// Describes the rest point at `forces` (the caller vouches that it is one, e.g. the origin
-    /// under the Lyapunov gains of eq (26)): feeds, Jacobian, eigenvalues and their verdict.
+    /// under the Lyapunov gains of Sudhakara eq (26)): feeds, Jacobian, eigenvalues and their verdict.
     pub fn equilibrium_at(&self, forces: [f64; TOOLS]) -> Equilibrium {
         let spindle_power = self.lathe.spindle_power(forces);
         let unsaturated = self.feeds_at_power(spindle_power);
@@ -414,7 +414,7 @@ impl PowerLoop {
         }
     }
 
-    /// Every rest point of eq (17), including those where a feed is clipped.
+    /// Every rest point of Sudhakara eq (17), including those where a feed is clipped.
     ///
     /// At rest F_i = K̄_i sat(f_ci(P))^α_i, and f_ci depends on the forces only through the
     /// spindle power P. So the intersections of the zero sets of (17a) and (17b) are the roots of
@@ -473,9 +473,9 @@ impl PowerLoop {
         })
     }
 
-    /// The lines where each tool's commanded feed reaches zero (eq (21)) or f_max, for tools
+    /// The lines where each tool's commanded feed reaches zero (Sudhakara eq (21)) or f_max, for tools
     /// with a non-zero gain. A zero-feed line at P = P_max + f_ni/h_i lies in the positive
-    /// quadrant exactly when h_i < −f_ni/P_max: the situation eq (23) rules out.
+    /// quadrant exactly when h_i < −f_ni/P_max: the situation Sudhakara eq (23) rules out.
     pub fn saturation_lines(&self) -> Vec<SaturationLine> {
         let nominal = self.lathe.nominal_feeds();
         let max_power = self.lathe.params().max_spindle_power;
@@ -674,7 +674,7 @@ mod tests {
         Lathe::new(LatheParams::default()).unwrap()
     }
 
-    /// α = 1 makes eq (17) linear while no feed clips: Ḟ = M (F − F_r) with
+    /// α = 1 makes Sudhakara eq (17) linear while no feed clips: Ḟ = M (F − F_r) with
     /// M = A − B H C, whose exponential has Sylvester's closed form for distinct eigenvalues.
     #[test]
     fn rk4_matches_the_closed_form_of_the_unsaturated_linear_loop() {
@@ -767,7 +767,7 @@ mod tests {
         let reference = lathe.reference_forces();
         assert!((only.forces[0] - reference[0]).abs() < 1e-6);
         assert!((only.forces[1] - reference[1]).abs() < 1e-6);
-        // Without feedback the Jacobian is diag(−1/τ_i), eq (7a).
+        // Without feedback the Jacobian is diag(−1/τ_i), Sudhakara eq (7a).
         assert_eq!(only.kind, EquilibriumKind::StableNode);
         assert!((only.eigenvalues[0].re + 1.0 / 0.049).abs() < 1e-9);
         assert!((only.eigenvalues[1].re + 1.0 / 0.05).abs() < 1e-9);
@@ -803,7 +803,7 @@ mod tests {
         let reference = lathe.reference_forces();
         let gains = lathe.nominal_feeds().map(|feed| -feed / max_power);
         let power_loop = PowerLoop::new(lathe, gains).unwrap();
-        // Eq (26): f_ci = f_ni P / P_max, so zero force commands zero feed.
+        // Sudhakara eq (26): f_ci = f_ni P / P_max, so zero force commands zero feed.
         let origin = power_loop.equilibrium_at([0.0, 0.0]);
         assert_eq!(origin.kind, EquilibriumKind::NonSmooth);
         assert!(!origin.is_asymptotically_stable());
@@ -821,7 +821,7 @@ mod tests {
         assert!((end[0] - reference[0]).abs() < 1.0 && (end[1] - reference[1]).abs() < 1.0);
     }
 
-    /// H of the m = 1.5 / 1.49 s design (eq (14)); three rest points, each on both zero sets.
+    /// H of the m = 1.5 / 1.49 s design (Sudhakara eq (14)); three rest points, each on both zero sets.
     #[test]
     fn equilibria_lie_on_both_nullclines() {
         let power_loop = PowerLoop::new(table1(), [-1.305_207_6e-8, -7.265_477_4e-8]).unwrap();

@@ -1,22 +1,22 @@
 //! Parallel turning: two single-point tools cutting a stepped part on one spindle, after
 //! Sudhakara & Landers, "Output Feedback Force Control for a Parallel Turning Operation"
-//! (ACC 2003). This module holds the open-loop process: the static force law eq (1), the feed
-//! servos eq (2)–(3) and the operating point of eqs (4)–(6). [`closed_loop`] closes the
-//! power-feedback loop of eqs (16)–(23) and analyses it.
+//! (ACC 2003). This module holds the open-loop process: the static force law Sudhakara eq (1), the feed
+//! servos Sudhakara eq (2)–(3) and the operating point of Sudhakara eqs (4)–(6). [`closed_loop`] closes the
+//! power-feedback loop of Sudhakara eqs (16)–(23) and analyses it.
 //!
 //! # Units
 //!
 //! Everything here is SI: forces in N, cutting speeds in m/s, feeds in m per spindle revolution,
 //! depths and diameters in m, power in W, spindle speed in rad/s.
 //!
-//! The paper mixes units. Its eq (1) only reproduces its own nominal feeds (Table 1: 0.528 and
+//! The paper mixes units. Its Sudhakara eq (1) only reproduces its own nominal feeds (Table 1: 0.528 and
 //! 0.875 mm) when evaluated with F in kN, d and f in mm and V in km/min (its nomenclature), while
-//! eqs (4), (5), (7b) and (19)–(23) need V in m/s so that kN·m/s = kW. So K = 1.17 "kN/mm²" is
+//! Sudhakara eqs (4), (5), (7b) and (19)–(23) need V in m/s so that kN·m/s = kW. So K = 1.17 "kN/mm²" is
 //! really kN · mm^−(α+β) · (km/min)^−γ. [`cutting_coefficient_from_paper_units`] converts it once:
 //!
 //! K_SI = K_paper · 10³ (N/kN) · (10³ mm/m)^(α+β) · (0.06 (km/min)/(m/s))^γ,
 //!
-//! after which eq (1) reads F[N] = K_SI · d[m]^β · V[m/s]^γ · f[m]^α. For Table 1 this is
+//! after which Sudhakara eq (1) reads F[N] = K_SI · d[m]^β · V[m/s]^γ · f[m]^α. For Table 1 this is
 //! K_SI ≈ 4.765·10⁸ N·m^−1.76·(m/s)^0.27.
 
 pub mod closed_loop;
@@ -33,7 +33,7 @@ use thiserror::Error;
 /// The paper's machine has two tools; arrays indexed by tool hold tool 1 first.
 pub const TOOLS: usize = 2;
 
-/// Converts the paper's cutting coefficient (eq (1) in kN, mm and km/min) into the SI form used
+/// Converts the paper's cutting coefficient (Sudhakara eq (1) in kN, mm and km/min) into the SI form used
 /// here (N, m, m/s); see the module docs for the derivation.
 pub fn cutting_coefficient_from_paper_units(
     coefficient_kn_mm_km_per_min: f64,
@@ -58,15 +58,15 @@ pub struct ToolParams {
     pub diameter: f64,
     /// Depth of cut d_i, m.
     pub depth_of_cut: f64,
-    /// K_i of eq (1) in SI: N · m^−(α+β) · (m/s)^−γ.
+    /// K_i of Sudhakara eq (1) in SI: N · m^−(α+β) · (m/s)^−γ.
     pub cutting_coefficient: f64,
-    /// α_i, feed exponent of eq (1); in (0, 1].
+    /// α_i, feed exponent of Sudhakara eq (1); in (0, 1].
     pub feed_exponent: f64,
-    /// β_i, depth-of-cut exponent of eq (1).
+    /// β_i, depth-of-cut exponent of Sudhakara eq (1).
     pub depth_exponent: f64,
-    /// γ_i, cutting-speed exponent of eq (1).
+    /// γ_i, cutting-speed exponent of Sudhakara eq (1).
     pub speed_exponent: f64,
-    /// τ_i of the feed servo, eq (2), s.
+    /// τ_i of the feed servo, Sudhakara eq (2), s.
     pub feed_time_constant: f64,
 }
 
@@ -95,29 +95,29 @@ impl ToolParams {
         0.5 * spindle_speed * self.diameter
     }
 
-    /// K̄_i = K_i d_i^β V_i^γ: the feed-independent part of eq (1), N · m^−α.
+    /// K̄_i = K_i d_i^β V_i^γ: the feed-independent part of Sudhakara eq (1), N · m^−α.
     pub fn static_gain(&self, cutting_speed: f64) -> f64 {
         self.cutting_coefficient
             * self.depth_of_cut.powf(self.depth_exponent)
             * cutting_speed.powf(self.speed_exponent)
     }
 
-    /// Eq (1): F_i = K̄_i f_i^α, N. A tool with no feed (or a negative one) cuts nothing.
+    /// Sudhakara eq (1): F_i = K̄_i f_i^α, N. A tool with no feed (or a negative one) cuts nothing.
     pub fn cutting_force(&self, cutting_speed: f64, feed_per_rev: f64) -> f64 {
         self.static_gain(cutting_speed) * feed_per_rev.max(0.0).powf(self.feed_exponent)
     }
 
-    /// Eq (6): the feed per revolution that makes eq (1) produce `force`, m.
+    /// Sudhakara eq (6): the feed per revolution that makes Sudhakara eq (1) produce `force`, m.
     pub fn feed_for_force(&self, cutting_speed: f64, force: f64) -> f64 {
         (force.max(0.0) / self.static_gain(cutting_speed)).powf(1.0 / self.feed_exponent)
     }
 
-    /// Eq (2) in the time domain: τ_i ḟ_i = f_ci − f_i, m/(rev·s).
+    /// Sudhakara eq (2) in the time domain: τ_i ḟ_i = f_ci − f_i, m/(rev·s).
     pub fn feed_rate(&self, feed_per_rev: f64, commanded_feed: f64) -> f64 {
         (commanded_feed - feed_per_rev) / self.feed_time_constant
     }
 
-    /// Eq (3): τ_i Ḟ_i = K̄_i f_ci^α − F_i, the force lag the paper uses in place of eqs (1)+(2),
+    /// Sudhakara eq (3): τ_i Ḟ_i = K̄_i f_ci^α − F_i, the force lag the paper uses in place of Sudhakara eqs (1)+(2),
     /// N/s.
     pub fn force_rate(&self, cutting_speed: f64, force: f64, commanded_feed: f64) -> f64 {
         (self.cutting_force(cutting_speed, commanded_feed) - force) / self.feed_time_constant
@@ -133,7 +133,7 @@ pub struct LatheParams {
     pub spindle_speed: f64,
     /// P_max, the spindle's maximum continuous power the loop regulates to, W.
     pub max_spindle_power: f64,
-    /// Upper limit of the commanded feed, eq (20), m/rev (paper: 1.5 mm).
+    /// Upper limit of the commanded feed, Sudhakara eq (20), m/rev (paper: 1.5 mm).
     pub max_feed: f64,
 }
 
@@ -153,12 +153,12 @@ impl Default for LatheParams {
     }
 }
 
-/// Eq (4): P = Σ V_i F_i, W.
+/// Sudhakara eq (4): P = Σ V_i F_i, W.
 pub fn spindle_power(cutting_speeds: [f64; TOOLS], forces: [f64; TOOLS]) -> f64 {
     cutting_speeds[0] * forces[0] + cutting_speeds[1] * forces[1]
 }
 
-/// Eq (5): each tool takes half of P_max, F_ri = P_max / (2 V_i), N.
+/// Sudhakara eq (5): each tool takes half of P_max, F_ri = P_max / (2 V_i), N.
 pub fn reference_forces(max_spindle_power: f64, cutting_speeds: [f64; TOOLS]) -> [f64; TOOLS] {
     cutting_speeds.map(|speed| 0.5 * max_spindle_power / speed)
 }
@@ -213,7 +213,7 @@ fn require_finite(name: impl Into<String>, value: f64) -> Result<(), LatheError>
     }
 }
 
-/// A validated lathe with its operating point (eqs (4)–(6)) worked out.
+/// A validated lathe with its operating point (Sudhakara eqs (4)–(6)) worked out.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Lathe {
     params: LatheParams,
@@ -282,45 +282,45 @@ impl Lathe {
         self.cutting_speeds
     }
 
-    /// K̄_i of eq (1), N · m^−α.
+    /// K̄_i of Sudhakara eq (1), N · m^−α.
     pub fn static_gains(&self) -> [f64; TOOLS] {
         self.static_gains
     }
 
-    /// F_ri of eq (5), N.
+    /// F_ri of Sudhakara eq (5), N.
     pub fn reference_forces(&self) -> [f64; TOOLS] {
         self.reference_forces
     }
 
-    /// f_ni of eq (6), m/rev.
+    /// f_ni of Sudhakara eq (6), m/rev.
     pub fn nominal_feeds(&self) -> [f64; TOOLS] {
         self.nominal_feeds
     }
 
-    /// τ_i of eq (2), s.
+    /// τ_i of Sudhakara eq (2), s.
     pub fn feed_time_constants(&self) -> [f64; TOOLS] {
         self.params.tools.map(|tool| tool.feed_time_constant)
     }
 
-    /// Eq (4) at this spindle speed, W.
+    /// Sudhakara eq (4) at this spindle speed, W.
     pub fn spindle_power(&self, forces: [f64; TOOLS]) -> f64 {
         spindle_power(self.cutting_speeds, forces)
     }
 
-    /// Eq (1) for both tools, N.
+    /// Sudhakara eq (1) for both tools, N.
     pub fn cutting_forces(&self, feeds_per_rev: [f64; TOOLS]) -> [f64; TOOLS] {
         [0, 1].map(|i| self.params.tools[i].cutting_force(self.cutting_speeds[i], feeds_per_rev[i]))
     }
 
-    /// Eq (3) for both tools, N/s.
+    /// Sudhakara eq (3) for both tools, N/s.
     pub fn force_rates(&self, forces: [f64; TOOLS], commanded_feeds: [f64; TOOLS]) -> [f64; TOOLS] {
         [0, 1].map(|i| {
             self.params.tools[i].force_rate(self.cutting_speeds[i], forces[i], commanded_feeds[i])
         })
     }
 
-    /// K̄_iα of eq (7a): ∂F_i/∂f_i at the nominal feed, α_i K̄_i f_ni^(α−1) = α_i F_ri / f_ni, N/m.
-    /// (The paper prints K_i for K̄_i in this definition; only K̄_i makes it the slope of eq (1).)
+    /// K̄_iα of Sudhakara eq (7a): ∂F_i/∂f_i at the nominal feed, α_i K̄_i f_ni^(α−1) = α_i F_ri / f_ni, N/m.
+    /// (The paper prints K_i for K̄_i in this definition; only K̄_i makes it the slope of Sudhakara eq (1).)
     pub fn force_feed_slopes(&self) -> [f64; TOOLS] {
         [0, 1].map(|i| {
             self.params.tools[i].feed_exponent * self.reference_forces[i] / self.nominal_feeds[i]
@@ -342,15 +342,15 @@ mod tests {
         let [v1, v2] = lathe.cutting_speeds();
         // π D N_s: 235.6 and 471.2 m/min.
         assert!(close(v1, 3.926_990_8, 1e-7) && close(v2, 7.853_981_6, 1e-7));
-        // Eq (5): 20 kW split evenly, 2.546 and 1.273 kN.
+        // Sudhakara eq (5): 20 kW split evenly, 2.546 and 1.273 kN.
         let [fr1, fr2] = lathe.reference_forces();
         assert!(close(fr1, 2546.479, 1e-6) && close(fr2, 1273.240, 1e-6));
         assert!(close(lathe.spindle_power([fr1, fr2]), 20e3, 1e-12));
-        // Eq (6): Table 1 prints 0.528 and 0.875 mm.
+        // Sudhakara eq (6): Table 1 prints 0.528 and 0.875 mm.
         let [fn1, fn2] = lathe.nominal_feeds();
         assert!((fn1 - 0.528e-3).abs() < 0.5e-6, "f_n1 = {fn1}");
         assert!((fn2 - 0.875e-3).abs() < 0.5e-6, "f_n2 = {fn2}");
-        // Eq (1) at the nominal feed gives back the reference force.
+        // Sudhakara eq (1) at the nominal feed gives back the reference force.
         let forces = lathe.cutting_forces([fn1, fn2]);
         assert!(close(forces[0], fr1, 1e-12) && close(forces[1], fr2, 1e-12));
     }
@@ -359,7 +359,7 @@ mod tests {
     fn paper_units_conversion_agrees_with_evaluating_eq1_in_paper_units() {
         let tool = LatheParams::default().tools[0];
         let (speed, feed): (f64, f64) = (3.2, 0.4e-3);
-        // Eq (1) as the paper evaluates it: kN from mm and km/min.
+        // Sudhakara eq (1) as the paper evaluates it: kN from mm and km/min.
         let paper_kn = 1.17
             * (tool.depth_of_cut * 1e3).powf(0.87)
             * (speed * 0.06).powf(-0.27)
@@ -379,7 +379,7 @@ mod tests {
         assert_eq!(tool.feed_rate(0.2e-3, 0.7e-3), 0.5e-3 / 0.049);
         let [_, fr2] = lathe.reference_forces();
         let [_, fn2] = lathe.nominal_feeds();
-        // At the nominal feed the reference force is a rest point of eq (3).
+        // At the nominal feed the reference force is a rest point of Sudhakara eq (3).
         assert!(lathe.force_rates([0.0, fr2], [0.0, fn2])[1].abs() < 1e-9);
         assert!(close(
             lathe.force_rates([0.0, 0.0], [0.0, fn2])[1],

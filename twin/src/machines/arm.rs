@@ -22,7 +22,7 @@
 //! how far the tool has strayed into the stock, the path speed the tool's velocity along the
 //! contour, and [`models::arm_milling::Cutter::load`] gives the tooth-period mean force on the
 //! tool (applied at the spindle axis; the multibody carries its reaction to the joints as
-//! `Jᵀ(q)·F`, the paper's eq 1) and the torque resisting the spindle (a couple on the cutter). With
+//! `Jᵀ(q)·F`, Ilyukhin eq (1)) and the torque resisting the spindle (a couple on the cutter). With
 //! the stock on the right of travel a counter-clockwise spindle mills up, a clockwise one down.
 //!
 //! Signals measured by the controller: `shoulder_current`, `elbow_current`, `wrist_current`,

@@ -87,7 +87,7 @@ pub struct AnalyzeArgs {
     /// milling: the tool's y frequency response (see --frf-x).
     #[arg(long, requires = "frf_x", value_name = "FILE")]
     pub frf_y: Option<PathBuf>,
-    /// Design time constant m_1 of eq (12), s.
+    /// Design time constant m_1 of Sudhakara eq (12), s.
     #[arg(
         long,
         default_value_t = 0.5,
@@ -95,7 +95,7 @@ pub struct AnalyzeArgs {
         conflicts_with_all = ["h1", "h2"]
     )]
     pub m1: f64,
-    /// Design time constant m_2 of eq (12), s.
+    /// Design time constant m_2 of Sudhakara eq (12), s.
     #[arg(
         long,
         default_value_t = 0.49,

@@ -1,6 +1,6 @@
 //! `twin reproduce lathe`: Sudhakara & Landers, "Output Feedback Force Control for a Parallel
-//! Turning Operation" (ACC 2003). The phase-plane claims (Figs 4–9, eqs (15), (21)–(23)) are
-//! checked on the reduced model of eq (17); the rigid-body twin (scenario `lathe-turning`) is then
+//! Turning Operation" (ACC 2003). The phase-plane claims (Figs 4–9, Sudhakara eqs (15), (21)–(23)) are
+//! checked on the reduced model of Sudhakara eq (17); the rigid-body twin (scenario `lathe-turning`) is then
 //! started inside and outside the failing region and must end where the reduced model, started at
 //! the twin's own forces when both tools meet the part, says it ends.
 //!
@@ -42,7 +42,7 @@ pub struct Comparison {
     /// The twin's forces when both tools first cut, N.
     pub twin_initial: [f64; TOOLS],
     pub twin_settled: [f64; TOOLS],
-    /// Eq (17) from `twin_initial`, N.
+    /// Sudhakara eq (17) from `twin_initial`, N.
     pub model_settled: [f64; TOOLS],
     /// max_i |twin − model| / F_ri.
     pub difference: f64,

@@ -1,5 +1,5 @@
 //! `twin reproduce platform`: Kalinski et al. 2013, §4 — the two-wheeled mobile platform under
-//! optimal control at the kinetic-energy index (`energy-optimal`, eqs 19–21) and under two PID
+//! optimal control at the kinetic-energy index (`energy-optimal`, Kaliński eqs (19)–(21)) and under two PID
 //! loops (`pid`, its grid-searched defaults), on the Fig. 7 path (`platform-path`) and the Fig. 10
 //! path (`platform-path-s`), and on the Fig. 10 path again on a slippery floor (μ = 0.05).
 //!

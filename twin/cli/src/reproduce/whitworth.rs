@@ -1,7 +1,7 @@
 //! `twin reproduce whitworth`: Perrusquía, Flores-Campos & Yu (2022), optimal sliding-mode
 //! control for cutting tasks of quick-return mechanisms, on the twin's Whitworth shaper.
 //!
-//! Runs `whitworth-tracking` (§6.1, eq 35) and `whitworth-cutting` (§6.2, eq 40) with each of
+//! Runs `whitworth-tracking` (§6.1, Perrusquía eq (35)) and `whitworth-cutting` (§6.2, Perrusquía eq (40)) with each of
 //! `osmc`, `ffc`, `lqt`, `smc2` and compares the paper's claims with the twin's figures: the
 //! scenarios' summaries (the tracking MSE of §6.1 is `whitworth-tracking`'s `tracking_mse`, the
 //! velocity error over the workpiece `whitworth-cutting`'s machine figures) and a [`SwitchWatch`]

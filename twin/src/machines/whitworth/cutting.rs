@@ -1,9 +1,9 @@
-//! The shaper's cutting process: the contact force of the OSMC paper's eq (40) and the figures a
+//! The shaper's cutting process: the contact force of Perrusquía eq (40) and the figures a
 //! cutting run is judged by (velocity over the workpiece, stroke times, quick-return ratio).
 //!
-//! The workpiece sits where Algorithm 1 puts it: `[x_a, x_b]` of eqs (4)–(5) on the linkage's
+//! The workpiece sits where Algorithm 1 puts it: `[x_a, x_b]` of Perrusquía eqs (4)–(5) on the linkage's
 //! stroke, entered at x_a. While the ram moves the cutting way inside it, the tool meets the
-//! contact force, of constant magnitude, against the motion (eq 40: 400 N up while ẏ < 0).
+//! contact force, of constant magnitude, against the motion (Perrusquía eq (40): 400 N up while ẏ < 0).
 
 use models::velocity_profile::{ProfileParams, VelocityProfile};
 use models::whitworth::Geometry;
@@ -17,7 +17,7 @@ pub struct Workpiece {
     pub length: f64,
     /// `v`, m/s, signed (the twin cuts downward: v < 0); the velocity the figures compare with.
     pub cutting_velocity: f64,
-    /// `|f_y|` of eq (40), N.
+    /// `|f_y|` of Perrusquía eq (40), N.
     pub contact_force: f64,
 }
 
@@ -102,7 +102,7 @@ impl Cutting {
         (y - self.entry) * self.direction >= 0.0 && (self.exit - y) * self.direction >= 0.0
     }
 
-    /// Eq (40): the vertical force on the ram at height y moving at ẏ, N (+ up).
+    /// Perrusquía eq (40): the vertical force on the ram at height y moving at ẏ, N (+ up).
     /// The ram positions where the tool enters and leaves the workpiece, m.
     pub fn zone(&self) -> [f64; 2] {
         [self.entry, self.exit]

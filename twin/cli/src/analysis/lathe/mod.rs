@@ -1,8 +1,8 @@
 //! Phase-plane analysis of the parallel lathe's power loop (Sudhakara & Landers, ACC 2003) on
-//! its reduced model, eqs (16)–(23) in `models::lathe::closed_loop`: equilibria and their
+//! its reduced model, Sudhakara eqs (16)–(23) in `models::lathe::closed_loop`: equilibria and their
 //! stability (Figs 6–7), the phase portrait from a grid of positive initial forces (Figs 4–5),
 //! the region-of-attraction boundary by reverse trajectories from each saddle (Fig 8) and the
-//! saturation lines of eq (21) (Fig 9).
+//! saturation lines of Sudhakara eq (21) (Fig 9).
 
 mod output;
 
@@ -18,7 +18,7 @@ use models::lathe::{
 /// Where the power gains H come from.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Gains {
-    /// Eqs (12)–(14) for the design time constants m_1, m_2 (s), Theorem 1 reported.
+    /// Sudhakara eqs (12)–(14) for the design time constants m_1, m_2 (s), Theorem 1 reported.
     Design { time_constants: [f64; TOOLS] },
     /// H given, m/(rev·W).
     Given([f64; TOOLS]),
@@ -75,7 +75,7 @@ pub struct PhasePlane {
     pub portrait: PhasePortrait,
     /// Per saddle: its stable manifold's two branches joined through it, the boundary of R_a.
     pub boundaries: Vec<Vec<[f64; TOOLS]>>,
-    /// Each saturation line of eq (20) with its segment in the window, if it crosses it.
+    /// Each saturation line of Sudhakara eq (20) with its segment in the window, if it crosses it.
     pub saturation_lines: Vec<(SaturationLine, Option<[[f64; TOOLS]; 2]>)>,
     pub nullclines: Nullclines,
 }
@@ -199,7 +199,7 @@ impl PhasePlane {
         }
     }
 
-    /// The reduced model's rest point from `initial_forces`: where eq (17) ends after `duration`.
+    /// The reduced model's rest point from `initial_forces`: where Sudhakara eq (17) ends after `duration`.
     pub fn final_forces(
         &self,
         initial_forces: [f64; TOOLS],

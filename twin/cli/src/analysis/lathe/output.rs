@@ -25,7 +25,7 @@ impl PhasePlane {
         write(self, out_dir)
     }
 
-    /// A few lines for people: H, eq (23), equilibria, the failing region.
+    /// A few lines for people: H, Sudhakara eq (23), equilibria, the failing region.
     pub fn summary(&self) -> String {
         summary(self)
     }
