@@ -1,6 +1,5 @@
 //! Helpers shared by the end-to-end tests.
 
-use controllers::Registry;
 use std::path::PathBuf;
 use twin::{LoadedScenario, RunSummary, Scenario, ScenarioBuilder, ScenarioValue, Twin};
 
@@ -24,7 +23,7 @@ impl Configure for ScenarioBuilder {
     }
 
     fn loaded(self) -> LoadedScenario {
-        self.build(&Registry::builtin())
+        self.build(&controllers::builtin())
             .unwrap_or_else(|e| panic!("{e}"))
     }
 }
@@ -39,7 +38,7 @@ pub fn run(loaded: LoadedScenario, recording: Option<&std::path::Path>) -> RunSu
 /// What refuses `builder` as `twin run` would: building the scenario (a bad key, a bad
 /// controller parameter) or binding its twin (a mismatch with the plant); `None` when neither does.
 pub fn refusal(builder: ScenarioBuilder) -> Option<String> {
-    match builder.build(&Registry::builtin()).map(Twin::new) {
+    match builder.build(&controllers::builtin()).map(Twin::new) {
         Ok(Ok(_)) => None,
         Ok(Err(error)) => Some(error.to_string()),
         Err(error) => Some(error.to_string()),

@@ -1,7 +1,7 @@
 //! Range checks of controller parameters: each returns the value, or a
 //! [`ControllerError::BadParameter`] that names the key and the value.
 
-use crate::ControllerError;
+use framework::ControllerError;
 
 /// `value` is a finite number (TOML rejects none, a Rust caller may pass any).
 pub(crate) fn finite(controller: &str, key: &str, value: f64) -> Result<f64, ControllerError> {

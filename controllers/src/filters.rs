@@ -10,7 +10,7 @@
 //! its state is set to the steady state for that input (output `b₀·input`), so a signal that
 //! starts far from zero causes no start-up transient.
 
-use crate::ControllerError;
+use framework::ControllerError;
 use thiserror::Error;
 
 /// A filter time constant that cannot be used.

@@ -1,8 +1,8 @@
 //! `passive`: no effort at all — the machine moves freely under gravity and its own momentum.
 //! The baseline for energy checks and for watching a mechanism fall.
 
-use crate::registry::{parse_params, Entry, ANY_MACHINE};
-use crate::{Controller, ControllerError, Measurement, PlantInterface};
+use framework::{parse_params, Entry, ANY_MACHINE};
+use framework::{Controller, ControllerError, Measurement, PlantInterface};
 use serde::Deserialize;
 
 /// `passive` takes no parameters; the empty struct makes any given key an error.

@@ -1,17 +1,21 @@
 //! Machine models of the twin: analytic kinematics, process and disturbance models, references.
 //! Pure math in SI units; nothing here knows the simulator or the recording.
+//!
+//! One module per machine, named as the machine is everywhere in the twin ([`whitworth`], [`arm`],
+//! [`platform`], [`feed_axis`], [`lathe`], [`milling`]), then the models they share: drives
+//! ([`drive`]), references ([`reference`], [`velocity_profile`]) and the independent serial-chain
+//! dynamics the engine is checked against ([`serial_chain`]).
 
-pub mod arm_milling;
-pub mod arm_path;
-pub mod drive;
+#![warn(missing_docs)]
+
+pub mod arm;
+pub mod feed_axis;
 pub mod lathe;
-pub mod micromilling;
 pub mod milling;
-pub mod milling_stability;
-pub mod platform_path;
+pub mod platform;
+pub mod whitworth;
+
+pub mod drive;
 pub mod reference;
 pub mod serial_chain;
-pub mod tyre;
 pub mod velocity_profile;
-pub mod whitworth;
-pub mod whitworth_dynamics;

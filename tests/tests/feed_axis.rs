@@ -2,7 +2,7 @@
 //! against the closed form of `m ẍ + b ẋ = F`, the drive, the ranking of the three controllers
 //! in Table I's terms, and bad input stopped before the run.
 
-use controllers::{Controller, ControllerError, Measurement, PlantInterface};
+use framework::{Controller, ControllerError, Measurement, PlantInterface};
 use std::sync::{Arc, Mutex};
 use twin::{MetricKind, MetricSpec};
 use twin::{RunSummary, ScenarioBuilder, ScenarioValue, Twin};

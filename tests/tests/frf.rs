@@ -1,7 +1,6 @@
 //! `twin frf` on the milling tool (the virtual tap test) and the lobes from its frequency
 //! responses: the tool's modal values come back, and the lobes agree with the model's.
 
-use controllers::Registry;
 use std::f64::consts::TAU;
 use std::path::{Path, PathBuf};
 use twin_cli::analysis::milling::{analyze, LobeRequest};
@@ -45,7 +44,7 @@ fn assert_mode(joint: &str, excitation: Excitation, mass: f64, zeta_tolerance: f
         band,
         ..tap(joint, excitation)
     };
-    let result = measure(&args, &Registry::builtin()).unwrap();
+    let result = measure(&args, &controllers::builtin()).unwrap();
     let fit = result.mode.unwrap();
     let (fn_model, zeta_model) = model(mass);
     let fn_error = fit.natural_frequency_hz / fn_model - 1.0;
@@ -76,7 +75,7 @@ fn the_tap_test_recovers_the_tools_modes() {
 
 #[test]
 fn an_impulse_response_has_unit_coherence_and_the_static_compliance() {
-    let result = measure(&tap("tool_x", Excitation::Impulse), &Registry::builtin()).unwrap();
+    let result = measure(&tap("tool_x", Excitation::Impulse), &controllers::builtin()).unwrap();
     let dc = result.lines[0];
     assert_eq!(dc.frequency_hz, 0.0);
     // Static compliance 1/k.
@@ -87,7 +86,7 @@ fn an_impulse_response_has_unit_coherence_and_the_static_compliance() {
     );
     assert!(result.lines.iter().all(|l| l.coherence > 0.999));
     // The same inputs, the same bytes.
-    let again = measure(&tap("tool_x", Excitation::Impulse), &Registry::builtin()).unwrap();
+    let again = measure(&tap("tool_x", Excitation::Impulse), &controllers::builtin()).unwrap();
     assert_eq!(
         twin_cli::frf::file::to_csv(&result.lines),
         twin_cli::frf::file::to_csv(&again.lines)
@@ -116,7 +115,7 @@ fn lobes_checked(
             check_duration: 0.4,
             frf,
         },
-        &Registry::builtin(),
+        &controllers::builtin(),
     )
     .unwrap_or_else(|e| panic!("{e}"))
 }
@@ -124,7 +123,7 @@ fn lobes_checked(
 #[test]
 fn lobes_from_the_tap_tests_frfs_agree_with_the_models() {
     let dir = scratch("lobes");
-    let registry = Registry::builtin();
+    let registry = controllers::builtin();
     let mut files = Vec::new();
     for joint in ["tool_x", "tool_y"] {
         let result = measure(&tap(joint, Excitation::Impulse), &registry).unwrap();
@@ -169,7 +168,7 @@ fn lobes_from_the_tap_tests_frfs_agree_with_the_models() {
 }
 
 fn error(args: &FrfArgs) -> String {
-    match measure(args, &Registry::builtin()) {
+    match measure(args, &controllers::builtin()) {
         Ok(_) => panic!("accepted"),
         Err(e) => e.to_string(),
     }
@@ -282,7 +281,7 @@ fn a_diverging_run_is_named() {
         ]
         .map(String::from),
     );
-    match measure(&args, &Registry::builtin()) {
+    match measure(&args, &controllers::builtin()) {
         Err(FrfError::Diverged(message)) => {
             assert!(message.contains("tool_x.velocity"), "{message}")
         }
@@ -349,7 +348,7 @@ fn malformed_frf_files_are_refused_naming_file_line_and_column() {
                 check_duration: 0.4,
                 frf: Some([path.clone(), path]),
             },
-            &Registry::builtin(),
+            &controllers::builtin(),
         );
         let message = result.err().map(|e| e.to_string()).expect("accepted");
         assert!(!message.contains('\n'), "{message}");
@@ -374,7 +373,7 @@ fn the_feed_axis_open_loop_response_is_its_linear_model() {
         controller: Some("passive".into()),
         ..tap("table", Excitation::Noise)
     };
-    let result = measure(&args, &Registry::builtin()).unwrap();
+    let result = measure(&args, &controllers::builtin()).unwrap();
     let difference = twin_cli::frf::linear_difference(&result).unwrap();
     println!("feed axis: largest |H − G|/|G| {difference:.3e}");
     assert!(difference < 0.03, "measured vs linear model: {difference}");
@@ -404,7 +403,7 @@ fn the_feed_axis_open_loop_response_is_its_linear_model() {
             controller: None,
             ..args
         },
-        &Registry::builtin(),
+        &controllers::builtin(),
     )
     .unwrap();
     let reason = twin_cli::frf::linear_difference(&closed).unwrap_err();

@@ -2,7 +2,6 @@
 //! `output-feedback-force` controller against the reduced model of Sudhakara eq (17), inside and outside the
 //! region the slow design cannot recover from, and bad inputs refused before the run.
 
-use controllers::Registry;
 use twin::{ScenarioValue, Twin};
 use twin_cli::analysis::lathe::{analyze, Gains, PhasePlane, PhasePlaneRequest};
 use twin_cli::reproduce::lathe::{compare, Comparison, TwinStart, AGREEMENT};
@@ -34,7 +33,7 @@ fn twin_from(plane: &PhasePlane, initial_forces: [f64; 2], duration: f64) -> Com
         initial_forces,
         duration,
     };
-    let comparison = compare(plane, &start, &Registry::builtin(), None).unwrap();
+    let comparison = compare(plane, &start, &controllers::builtin(), None).unwrap();
     println!(
         "{:?} from {initial_forces:?}: met the part at {:?}, twin {:?}, model {:?}, {:.4} % of F_r",
         plane.request.gains,
@@ -173,7 +172,7 @@ fn analysis_writes_its_tables_and_plot() {
 fn refused(key: &str, value: impl Into<ScenarioValue>) -> String {
     let loaded = builtin("lathe-turning")
         .set(key, value)
-        .and_then(|b| b.build(&Registry::builtin()));
+        .and_then(|b| b.build(&controllers::builtin()));
     let error = match loaded {
         Err(e) => e.to_string(),
         Ok(loaded) => match Twin::new(loaded) {
@@ -264,7 +263,7 @@ fn analyze_command_names_bad_requests() {
         frf_x: None,
         frf_y: None,
     };
-    let registry = controllers::Registry::builtin();
+    let registry = controllers::builtin();
     let summary = analyze_command(&args, &registry).unwrap();
     assert!(summary.contains("saddle at (2086.5, 470.2) N"), "{summary}");
     assert!(summary.contains("NOT met"), "{summary}");

@@ -2,7 +2,6 @@
 //! values, chatter at 15,000 rpm and its reduction by Z04, the lobes against the twin's own runs,
 //! and bad input stopped before the run.
 
-use controllers::Registry;
 use std::f64::consts::TAU;
 use twin::{Findings, Observer, ObserverError, SignalLayout, StepView, Twin};
 use twin_cli::analysis::milling::{analyze, LobeRequest};
@@ -115,7 +114,7 @@ fn the_lobes_agree_with_the_twins_own_runs() {
             check_duration: 0.4,
             frf: None,
         },
-        &Registry::builtin(),
+        &controllers::builtin(),
     )
     .unwrap_or_else(|e| panic!("{e}"));
     println!("{}", analysis.summary());
@@ -129,7 +128,7 @@ fn the_lobes_agree_with_the_twins_own_runs() {
 
 #[test]
 fn bad_milling_input_is_refused_naming_the_entry() {
-    let error = |builder: twin::ScenarioBuilder| match builder.build(&Registry::builtin()) {
+    let error = |builder: twin::ScenarioBuilder| match builder.build(&controllers::builtin()) {
         Err(e) => e.to_string(),
         Ok(loaded) => match Twin::new(loaded) {
             Err(e) => e.to_string(),

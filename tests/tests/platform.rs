@@ -1,7 +1,6 @@
 //! The two-wheeled mobile platform end to end: both controllers on both paths, slip and odometry
 //! drift on a slippery floor, bad input caught before the run, and the PID grid search.
 
-use controllers::Registry;
 use twin::{RunSummary, Scenario, ScenarioBuilder, ScenarioValue, Twin};
 use twin_tests::{builtin, run, scratch, Configure};
 
@@ -125,7 +124,7 @@ fn a_user_urdf_with_a_bad_wheel_is_an_error_before_the_run() {
     ] {
         std::fs::write(dir.join("urdf/platform.urdf"), urdf.replacen(from, to, 1)).unwrap();
         let loaded = Scenario::from_file(dir.join("scenario.toml"))
-            .and_then(|b| b.build(&Registry::builtin()))
+            .and_then(|b| b.build(&controllers::builtin()))
             .unwrap();
         let err = Twin::new(loaded).err().unwrap();
         assert!(err.to_string().contains(expected), "{err}");

@@ -1,10 +1,10 @@
 //! The recording's spectra and lobe diagram, read back from the file: a milling run's spectrum
 //! with its chatter frequency and tooth-passing harmonics (against the run's own spectrum metrics
 //! and a direct Fourier sum of the tool's displacement), its operating point on the lobes (against
-//! the scenario and `models::milling_stability`), a spectrum on any machine whose scenario has a
+//! the scenario and `models::milling::stability`), a spectrum on any machine whose scenario has a
 //! spectral metric, and the same bytes from the same inputs.
 
-use models::milling_stability::{limiting_depth, SemiDiscretization, ToolModes};
+use models::milling::stability::{limiting_depth, SemiDiscretization, ToolModes};
 use std::f64::consts::TAU;
 use std::path::Path;
 use twin::recordings::{inspect, FigureLayer, RecordingContents};
@@ -206,7 +206,7 @@ fn a_stable_cut_is_marked_stable_under_lobes_that_match_the_stability_analysis()
         stiffness: [1.3669e6; 2],
         damping: [11.064; 2],
     };
-    let cut = models::milling_stability::CutGeometry {
+    let cut = models::milling::stability::CutGeometry {
         flutes: 2,
         cutting_pressure: 7e8,
         force_ratio: 0.3,

@@ -2,15 +2,13 @@
 //!
 //! `TwoSpeedCrank` is what a user might try on the shaper: turn the crank slowly while the ram
 //! cuts (moving down) and fast while it returns, with a proportional speed loop on crank torque.
-//! It implements `controllers::Controller`, is handed to `Twin::with_controller`, and is also
+//! It implements `framework::Controller`, is handed to `Twin::with_controller`, and is also
 //! registered by name so that a scenario could choose it.
 //!
 //! Run: `cargo run --release -p twin --example custom_controller`
 
-use controllers::registry::Entry;
-use controllers::{
-    Controller, ControllerError, Measurement, PlantInterface, Registry, SignalSpec, Unit,
-};
+use framework::Entry;
+use framework::{Controller, ControllerError, Measurement, PlantInterface, SignalSpec, Unit};
 use twin::{Overrides, Twin};
 
 struct TwoSpeedCrank {
@@ -70,14 +68,14 @@ fn two_speed_crank() -> TwoSpeedCrank {
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     // Either hand the controller over directly...
-    let builtin = Registry::builtin();
+    let builtin = controllers::builtin();
     let scenario = twin::load_scenario("whitworth-crank-pi", &Overrides::default(), &builtin)?;
     let twin = Twin::with_controller(scenario, Box::new(two_speed_crank()))?;
     let summary = twin.run(Some(std::path::Path::new("two-speed-crank.rrd")))?;
     print!("{}", twin::summary::to_table(&summary));
 
     // ...or register it by name beside the built-in controllers.
-    let mut registry = Registry::builtin();
+    let mut registry = controllers::builtin();
     registry.register(Entry {
         name: "two-speed-crank",
         machine: "whitworth",

@@ -4,7 +4,7 @@
 //! Run: `cargo run --release -p twin --example from_rust` (CI runs it; it fails loudly if a
 //! figure is missing).
 
-use controllers::{Controller, ControllerError, EventKind, Measurement, PlantInterface, Registry};
+use framework::{Controller, ControllerError, EventKind, Measurement, PlantInterface};
 use models::whitworth::Geometry;
 use twin::{Findings, Observer, ObserverError, Scenario, SignalLayout, StepView, Twin};
 
@@ -90,7 +90,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let scenario = Scenario::builtin("whitworth-tracking")?
         .duration(3.0)
         .set("sensors.ram_position.noise", 1e-5)?
-        .build(&Registry::builtin())?;
+        .build(&controllers::builtin())?;
     let controller = RamPd {
         stiffness: 100000.0,
         damping: 3000.0,

@@ -24,7 +24,7 @@
 
 use crate::mechanism::{Inertial, Mechanism};
 use crate::sensors::Noise;
-use controllers::{Actuator, Event, EventKind};
+use framework::{Actuator, Event, EventKind};
 use serde::{Deserialize, Serialize};
 use std::collections::VecDeque;
 

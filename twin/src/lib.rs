@@ -8,6 +8,8 @@
 //! knows Rapier; only `recording` knows Rerun. The applications built on the library (the `twin`
 //! command line, studies, reproductions, analyses) live in the `twin-cli` crate.
 
+#![warn(missing_docs)]
+
 mod energy;
 mod faults;
 mod files;
@@ -27,16 +29,17 @@ mod urdf;
 
 pub use linear::{Channel, LinearModel, ModelError, OperatingPoint};
 pub use output::{same_file, OutputError, OutputFile};
-pub use physics::Collision;
+pub use physics::{
+    AllowedContact, BodyKind, BodyShape, BodySpec, Collision, ContactOptions, Engine, SolverOptions,
+};
 pub use recording::{LiveViewer, RecordingError};
 pub use run::{
     Divergence, FailureKind, Findings, Interruption, LinearizeError, Observer, ObserverError,
     RunSummary, SignalLayout, Simulator, StepError, StepView, StopFlag, Twin, TwinError,
 };
 pub use scenario::{
-    load as load_scenario, AllowedContact, BodyKind, BodyShape, BodySpec, ContactOptions, Engine,
-    LoadedScenario, MetricKind, MetricSpec, Overrides, Scenario, ScenarioBuilder, ScenarioError,
-    ScenarioValue, SolverOptions, BUILTIN as BUILTIN_SCENARIOS,
+    load as load_scenario, LoadedScenario, MetricKind, MetricSpec, Overrides, Scenario,
+    ScenarioBuilder, ScenarioError, ScenarioValue, BUILTIN as BUILTIN_SCENARIOS,
 };
 pub use sensors::Noise;
 

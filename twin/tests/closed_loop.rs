@@ -3,7 +3,6 @@
 //! with a disturbance (as `Twin::with_joint_effort` applies one), with a reference offset (as
 //! `--set reference.offset` gives one); and its refusals.
 
-use controllers::Registry;
 use twin::{
     LoadedScenario, Observer, ObserverError, Scenario, Simulator, StepError, StepView, Twin,
 };
@@ -14,7 +13,7 @@ fn loaded(name: &str, duration: f64, set: &[&str]) -> LoadedScenario {
         .fold(builder, |b, assignment| {
             b.and_then(|b| b.assign(assignment))
         })
-        .and_then(|s| s.build(&Registry::builtin()))
+        .and_then(|s| s.build(&controllers::builtin()))
         .unwrap_or_else(|e| panic!("{e}"))
 }
 
@@ -104,12 +103,13 @@ fn the_closed_loop_of_every_machine_steps_as_its_run_bit_for_bit() {
     ] {
         let updates = run(Twin::new(loaded(name, duration, &[])).unwrap());
         let mut simulator =
-            Simulator::with_controller(loaded(name, duration, &[]), &Registry::builtin()).unwrap();
+            Simulator::with_controller(loaded(name, duration, &[]), &controllers::builtin())
+                .unwrap();
         let joints = simulator.joints().len();
         assert_eq!(
             simulator.controller(),
             Scenario::builtin(name)
-                .and_then(|s| s.build(&Registry::builtin()))
+                .and_then(|s| s.build(&controllers::builtin()))
                 .map(|l| l.scenario.controller.name)
                 .unwrap()
         );
@@ -144,7 +144,8 @@ fn a_disturbance_acts_as_an_effort_from_outside_on_its_joint() {
             .with_joint_effort(joint, efforts);
         let updates = run(twin.unwrap());
         let mut simulator =
-            Simulator::with_controller(loaded(name, duration, &[]), &Registry::builtin()).unwrap();
+            Simulator::with_controller(loaded(name, duration, &[]), &controllers::builtin())
+                .unwrap();
         let joints: Vec<String> = simulator
             .joints()
             .iter()
@@ -175,7 +176,7 @@ fn a_reference_offset_acts_as_the_scenarios_own_offset() {
     let plain = run(Twin::new(loaded(name, 0.05, &[])).unwrap());
     assert_ne!(updates.0[5][1], plain.0[5][1], "the offset moved the table");
     let mut simulator =
-        Simulator::with_controller(loaded(name, 0.05, &[]), &Registry::builtin()).unwrap();
+        Simulator::with_controller(loaded(name, 0.05, &[]), &controllers::builtin()).unwrap();
     assert_eq!(simulator.reference_inputs(), Ok(()));
     check(name, &updates, &mut simulator, |_| {
         (vec![0.0], [offset, 0.0, 0.0])
@@ -184,9 +185,11 @@ fn a_reference_offset_acts_as_the_scenarios_own_offset() {
 
 #[test]
 fn closed_loop_inputs_are_checked_by_name() {
-    let mut simulator =
-        Simulator::with_controller(loaded("whitworth-crank-pi", 1.0, &[]), &Registry::builtin())
-            .unwrap();
+    let mut simulator = Simulator::with_controller(
+        loaded("whitworth-crank-pi", 1.0, &[]),
+        &controllers::builtin(),
+    )
+    .unwrap();
     let error = simulator.step(&[1.0]).unwrap_err();
     assert!(matches!(error, StepError::ControllerInLoop(_)), "{error}");
     assert!(error.to_string().contains("`crank-pi`"), "{error}");

@@ -3,7 +3,7 @@
 //! scenario's report and stop, collision geometry leaving the dynamics alone, and every bad
 //! contact input against its one-line error.
 
-use controllers::{EventKind, EventLevel, Registry};
+use framework::{EventKind, EventLevel};
 use std::path::Path;
 use twin::engine::{load_urdf_file, Outline, Shape};
 use twin::{
@@ -26,7 +26,7 @@ fn scenario(name: &str, extra: &str, sets: &[&str]) -> Result<LoadedScenario, St
         builder = builder.assign(set).map_err(|e| e.to_string())?;
     }
     builder
-        .build(&Registry::builtin())
+        .build(&controllers::builtin())
         .map_err(|e| e.to_string())
 }
 
@@ -150,7 +150,7 @@ fn collision_geometry_leaves_the_exact_engines_motion_alone() {
     let bare = Scenario::from_file(&path)
         .unwrap()
         .duration(4.0)
-        .build(&Registry::builtin())
+        .build(&controllers::builtin())
         .unwrap();
     let shaped = scenario("arm-milling", "", &["duration=4"]).unwrap();
     let (with_shapes, _) = run(shaped);

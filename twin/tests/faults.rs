@@ -1,7 +1,7 @@
 //! Fault injection (`[[faults]]`) and URDF values as scenario values (`[plant]`, `urdf.…`):
 //! each fault's effect against what it is defined to do, measured on real runs.
 
-use controllers::{Event, EventKind, Registry};
+use framework::{Event, EventKind};
 use twin::{
     LoadedScenario, Observer, ObserverError, RunSummary, Scenario, SignalLayout, StepView, Twin,
 };
@@ -47,7 +47,7 @@ fn scenario(name: &str, faults: &str, duration: f64) -> LoadedScenario {
     let text = builtin_text(name);
     Scenario::from_toml(&format!("{text}\n{faults}"), name, None)
         .map(|s| s.duration(duration))
-        .and_then(|s| s.build(&Registry::builtin()))
+        .and_then(|s| s.build(&controllers::builtin()))
         .unwrap_or_else(|e| panic!("{e}"))
 }
 
@@ -176,7 +176,7 @@ fn a_mass_fault_from_the_start_equals_the_same_mass_given_as_a_plant_value() {
     );
     let plant = Scenario::builtin("whitworth-crank-pi")
         .and_then(|s| s.duration(0.5).set("urdf.link.ram.mass", 6.5))
-        .and_then(|s| s.build(&Registry::builtin()))
+        .and_then(|s| s.build(&controllers::builtin()))
         .unwrap();
     let nominal = traced(scenario("whitworth-crank-pi", "", 0.5)).0;
     let (faulted, plant) = (traced(faulted).0, traced(plant).0);
@@ -227,7 +227,8 @@ fn tool_breakage_removes_the_cutting_force_and_a_hard_spot_scales_it() {
 fn bad_faults_and_plant_values_name_the_entry() {
     let error = |extra: &str| {
         let text = format!("{}\n{extra}", builtin_text("whitworth-crank-pi"));
-        match Scenario::from_toml(&text, "s.toml", None).and_then(|s| s.build(&Registry::builtin()))
+        match Scenario::from_toml(&text, "s.toml", None)
+            .and_then(|s| s.build(&controllers::builtin()))
         {
             Err(e) => e.to_string(),
             Ok(loaded) => match Twin::new(loaded) {
@@ -266,7 +267,7 @@ fn array_entries_are_addressable_by_index() {
     let loaded = Scenario::from_toml(&text, "s", None)
         .and_then(|s| s.set("faults.0.start", 0.2))
         .and_then(|s| s.assign("faults.0.value=2.5"))
-        .and_then(|s| s.build(&Registry::builtin()))
+        .and_then(|s| s.build(&controllers::builtin()))
         .unwrap();
     assert_eq!(loaded.scenario.faults[0].start, 0.2);
     assert_eq!(loaded.scenario.faults[0].value, Some(2.5));

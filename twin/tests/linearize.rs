@@ -1,11 +1,11 @@
 //! `Twin::linearize` against closed forms and against the twin's own nonlinear runs: the feed
-//! axis as 1/(m·s² + b·s), the Whitworth crank's reduced model of `models::whitworth_dynamics` at
+//! axis as 1/(m·s² + b·s), the Whitworth crank's reduced model of `models::whitworth::dynamics` at
 //! several crank angles, a small effort step on the Whitworth linkage, an independent check of
 //! linear.json with python-control, and the operating times and machines it refuses.
 
-use controllers::{Controller, ControllerError, Measurement, PlantInterface, Registry};
+use framework::{Controller, ControllerError, Measurement, PlantInterface};
+use models::whitworth::dynamics::{Dynamics, LinkMasses};
 use models::whitworth::Geometry;
-use models::whitworth_dynamics::{Dynamics, LinkMasses};
 use std::f64::consts::FRAC_PI_2;
 use twin::{
     LinearModel, LinearizeError, Observer, ObserverError, Scenario, ScenarioValue, StepView, Twin,
@@ -28,7 +28,7 @@ fn builtin(name: &str, sets: &[(&str, ScenarioValue)], controller: Option<&str>)
             .unwrap_or_else(|e| panic!("{e}"));
     }
     let loaded = builder
-        .build(&Registry::builtin())
+        .build(&controllers::builtin())
         .unwrap_or_else(|e| panic!("{e}"));
     Twin::new(loaded).unwrap_or_else(|e| panic!("{e}"))
 }
@@ -178,7 +178,7 @@ fn crank_run(crank_angle: f64, effort: f64, duration: f64) -> Vec<[f64; 2]> {
     let loaded = Scenario::builtin("whitworth-crank-pi")
         .and_then(|b| b.set("initial.crank.position", crank_angle - FRAC_PI_2))
         .map(|b| b.duration(duration))
-        .and_then(|b| b.build(&Registry::builtin()))
+        .and_then(|b| b.build(&controllers::builtin()))
         .unwrap_or_else(|e| panic!("{e}"));
     let hold = Box::new(Hold { effort, crank: 0 });
     let twin = Twin::with_controller(loaded, hold).unwrap_or_else(|e| panic!("{e}"));

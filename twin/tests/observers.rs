@@ -1,6 +1,6 @@
 //! Observers, evaluators, typed events and the signal layout, through the library's one door.
 
-use controllers::{EventKind, EventLevel, Registry};
+use framework::{EventKind, EventLevel};
 use twin::BUILTIN_SCENARIOS as BUILTIN;
 use twin::{
     Findings, LoadedScenario, Observer, ObserverError, RunSummary, Scenario, SignalLayout,
@@ -16,7 +16,7 @@ fn with_extra(name: &str, extra: &str, duration: f64) -> Result<LoadedScenario, 
     let text = format!("{}\n{extra}", builtin_text(name));
     Scenario::from_toml(&text, name, None)
         .map(|s| s.duration(duration))
-        .and_then(|s| s.build(&Registry::builtin()))
+        .and_then(|s| s.build(&controllers::builtin()))
         .map_err(|e| e.to_string())
 }
 
@@ -158,7 +158,7 @@ fn settle_time_is_the_start_of_the_last_stretch_within_the_band() {
 
 /// Collects the typed events of a run.
 #[derive(Default)]
-struct Events(Vec<(usize, controllers::Event)>);
+struct Events(Vec<(usize, framework::Event)>);
 
 impl Observer for Events {
     fn observe(&mut self, view: &StepView) -> Result<(), ObserverError> {
@@ -171,7 +171,7 @@ impl Observer for Events {
 #[test]
 fn mode_switches_and_saturation_are_typed_events() {
     let loaded = Scenario::builtin("whitworth-cutting")
-        .and_then(|s| s.build(&Registry::builtin()))
+        .and_then(|s| s.build(&controllers::builtin()))
         .unwrap();
     let mut events = Events::default();
     let summary = run_with(loaded, &mut [&mut events]);
@@ -218,7 +218,7 @@ fn mode_switches_and_saturation_are_typed_events() {
 fn a_divergence_is_the_last_steps_error_event() {
     let loaded = Scenario::builtin("whitworth-crank-pi")
         .and_then(|s| s.set("health.max_joint_speed", 0.5))
-        .and_then(|s| s.build(&Registry::builtin()))
+        .and_then(|s| s.build(&controllers::builtin()))
         .unwrap();
     let mut events = Events::default();
     let summary = run_with(loaded, &mut [&mut events]);
@@ -252,7 +252,7 @@ fn an_observers_error_stops_the_run_and_keeps_no_recording() {
     std::fs::create_dir_all(&folder).unwrap();
     let path = folder.join("stopped.rrd");
     let loaded = Scenario::builtin("whitworth-crank-pi")
-        .and_then(|s| s.build(&Registry::builtin()))
+        .and_then(|s| s.build(&controllers::builtin()))
         .unwrap();
     let error = Twin::new(loaded)
         .and_then(|twin| twin.run_with(Some(&path), &mut [&mut FailAt(10)]))
@@ -335,7 +335,7 @@ fn the_layout_names_every_slice_a_step_carries() {
         }
     }
     let loaded = Scenario::builtin("whitworth-tracking")
-        .and_then(|s| s.duration(0.05).build(&Registry::builtin()))
+        .and_then(|s| s.duration(0.05).build(&controllers::builtin()))
         .unwrap();
     run_with(loaded, &mut [&mut Check]);
 }

@@ -1,7 +1,7 @@
 //! `Simulator`, the plant stepped from outside, against the twin's own run of the same efforts
 //! (through a controller that commands them), bit for bit; and its refusals.
 
-use controllers::{Controller, ControllerError, Measurement, PlantInterface, Registry};
+use framework::{Controller, ControllerError, Measurement, PlantInterface};
 use twin::BUILTIN_SCENARIOS as BUILTIN;
 use twin::{
     LoadedScenario, Observer, ObserverError, Scenario, Simulator, StepError, StepView, Twin,
@@ -12,13 +12,13 @@ const STEP_AT: f64 = 0.01;
 fn loaded(name: &str, duration: f64) -> LoadedScenario {
     Scenario::builtin(name)
         .map(|s| s.duration(duration))
-        .and_then(|s| s.build(&Registry::builtin()))
+        .and_then(|s| s.build(&controllers::builtin()))
         .unwrap_or_else(|e| panic!("{e}"))
 }
 
 /// A step input: zero, then a fifth of each actuator's limit (or 1 N / N·m without one) from
 /// `STEP_AT` on.
-fn step_input(plant: &[controllers::Actuator], time: f64) -> Vec<f64> {
+fn step_input(plant: &[framework::Actuator], time: f64) -> Vec<f64> {
     plant
         .iter()
         .map(|a| {
@@ -37,7 +37,7 @@ fn step_input(plant: &[controllers::Actuator], time: f64) -> Vec<f64> {
 }
 
 struct StepController {
-    actuators: Vec<controllers::Actuator>,
+    actuators: Vec<framework::Actuator>,
 }
 
 impl Controller for StepController {
@@ -115,7 +115,7 @@ fn a_reset_repeats_the_run_and_another_seed_draws_other_noise() {
             .1
     );
     let noisy = Scenario::from_toml(&text, "noisy", None)
-        .and_then(|s| s.build(&Registry::builtin()))
+        .and_then(|s| s.build(&controllers::builtin()))
         .unwrap();
     let mut simulator = Simulator::new(noisy).unwrap();
     let efforts = vec![1.0; simulator.actuators().len()];

@@ -17,10 +17,10 @@
 
 use super::servo::{ArmServo, ServoParams};
 use crate::check::positive;
-use crate::event::Event;
 use crate::filters::{FilterError, FirstOrderFilter};
-use crate::registry::{parse_params, Entry};
-use crate::{Controller, ControllerError, Measurement, PlantInterface, SignalSpec, Unit};
+use framework::Event;
+use framework::{parse_params, Entry};
+use framework::{Controller, ControllerError, Measurement, PlantInterface, SignalSpec, Unit};
 use serde::Deserialize;
 
 const NAME: &str = "path-speed-adaptive";
@@ -281,12 +281,11 @@ impl Controller for PathSpeedAdaptive {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::Registry;
 
     fn build(key: &str, value: toml::Value) -> Result<Box<dyn Controller>, ControllerError> {
         let mut table = toml::Table::new();
         table.insert(key.into(), value);
-        Registry::builtin().build(NAME, "arm", &table)
+        framework::Registry::with([super::entry()]).build(NAME, "arm", &table)
     }
 
     #[test]
@@ -350,9 +349,9 @@ mod tests {
             actuators: crate::arm::servo::JOINTS
                 .iter()
                 .zip([84.0, 60.0, 20.0])
-                .map(|(j, limit)| crate::Actuator {
+                .map(|(j, limit)| framework::Actuator {
                     joint: j.to_string(),
-                    kind: crate::EffortKind::Torque,
+                    kind: framework::EffortKind::Torque,
                     effort_limit: limit,
                 })
                 .collect(),

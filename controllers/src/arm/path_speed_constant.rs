@@ -11,10 +11,10 @@
 use super::path_speed_adaptive::{lead_lag, PAPER_PATH_SPEED_MM_S};
 use super::servo::{ArmServo, ServoParams};
 use crate::check::positive;
-use crate::event::Event;
 use crate::filters::FirstOrderFilter;
-use crate::registry::{parse_params, Entry};
-use crate::{Controller, ControllerError, Measurement, PlantInterface, SignalSpec, Unit};
+use framework::Event;
+use framework::{parse_params, Entry};
+use framework::{Controller, ControllerError, Measurement, PlantInterface, SignalSpec, Unit};
 use serde::Deserialize;
 
 const NAME: &str = "path-speed-constant";
@@ -136,14 +136,13 @@ impl Controller for PathSpeedConstant {
 
 #[cfg(test)]
 mod tests {
-    use crate::Registry;
 
     #[test]
     fn bad_speed_and_filter_are_named() {
         for key in ["path_speed", "speed_filter_lead", "speed_filter_lag"] {
             let mut table = toml::Table::new();
             table.insert(key.into(), toml::Value::Float(-0.01));
-            let err = Registry::builtin()
+            let err = framework::Registry::with([super::entry()])
                 .build("path-speed-constant", "arm", &table)
                 .err()
                 .unwrap();

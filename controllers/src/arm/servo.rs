@@ -1,6 +1,6 @@
 //! Joint servos and path following of the machining arm, shared by the path-speed controllers
 //! ([`super::path_speed_adaptive`], [`super::path_speed_constant`]): the robot program of
-//! `models::arm_path` (control points → inverse kinematics → cubics in the path length,
+//! `models::arm::path` (control points → inverse kinematics → cubics in the path length,
 //! Ilyukhin eqs (2)–(4)) walked at the path speed the controller chooses, and one PID position
 //! servo per joint whose output is the joint drive's **current command, in A** (the arm's drives
 //! take currents; see the `arm` machine).
@@ -30,9 +30,9 @@
 //! the arm holds the last point.
 
 use crate::check::{finite, non_negative, positive};
-use crate::event::Event;
-use crate::{ControllerError, Measurement, PlantInterface, SignalSpec, Unit};
-use models::arm_path::{
+use framework::Event;
+use framework::{ControllerError, Measurement, PlantInterface, SignalSpec, Unit};
+use models::arm::path::{
     ArmGeometry, Contour, ContourPath, Elbow, JointPath, PathCursor, PathError,
 };
 use models::serial_chain::{solve, ChainLink, SerialChain};
@@ -692,9 +692,9 @@ mod tests {
             actuators: JOINTS
                 .iter()
                 .zip([84.0, 60.0, 20.0])
-                .map(|(j, limit)| crate::Actuator {
+                .map(|(j, limit)| framework::Actuator {
                     joint: j.to_string(),
-                    kind: crate::EffortKind::Torque,
+                    kind: framework::EffortKind::Torque,
                     effort_limit: limit,
                 })
                 .collect(),

@@ -26,8 +26,8 @@
 
 use crate::check::{non_negative, positive};
 use crate::filters::FirstOrderFilter;
-use crate::registry::{parse_params, Entry};
-use crate::{
+use framework::{parse_params, Entry};
+use framework::{
     Controller, ControllerError, EffortKind, Measurement, PlantInterface, SignalSpec, Unit,
 };
 use serde::Deserialize;
@@ -299,8 +299,8 @@ impl Controller for PPi {
 /// b = 250 N·s/m), its sine reference, optionally the micro-milling cut, run under a controller.
 #[cfg(test)]
 pub(crate) mod test_rig {
-    use crate::{Actuator, Controller, EffortKind, Measurement, PlantInterface};
-    use models::micromilling::MicroMillingCut;
+    use framework::{Actuator, Controller, EffortKind, Measurement, PlantInterface};
+    use models::feed_axis::micromilling::MicroMillingCut;
     use models::reference::Reference;
 
     const TABLE_MASS: f64 = 10.0;
@@ -489,8 +489,7 @@ pub(crate) mod test_rig {
 mod tests {
     use super::test_rig::{plant, run, Rig};
     use super::*;
-    use crate::Registry;
-    use models::micromilling::{MicroMillingCut, MicroMillingParams};
+    use models::feed_axis::micromilling::{MicroMillingCut, MicroMillingParams};
 
     #[test]
     fn paper_gains_are_accepted_and_stable() {
@@ -570,7 +569,7 @@ mod tests {
         let build = |key: &str, value: f64| {
             let mut table = toml::Table::new();
             table.insert(key.into(), toml::Value::Float(value));
-            Registry::builtin()
+            framework::Registry::with([super::entry()])
                 .build(NAME, "feed_axis", &table)
                 .err()
                 .unwrap()

@@ -24,15 +24,15 @@
 //! its printed law implies W = 1 N/s. Here λ = 135 s⁻² places the sliding dynamics' poles
 //! together near −11.6 rad/s with μ = b̂/m̂ = 23.2 s⁻¹. W = 1 N/s is kept: it exceeds the rate of
 //! the slow part of the micro-milling load (its drag, a few mN/s at the paper's feed; see
-//! `models::micromilling`) but not that of the 384 Hz tooth ripple (≈4 N/s), whose effect on the
+//! `models::feed_axis::micromilling`) but not that of the 384 Hz tooth ripple (≈4 N/s), whose effect on the
 //! 10 kg table is of order 10⁻¹¹ m. Λ = 10 N·(s/m)^½ was chosen on the test rig (10 kHz loop,
 //! τ_v = 1 ms): it settles the start from rest within a few milliseconds, whereas W ≥ 3 N/s or
 //! Λ ≥ 50 make the sampled loop, which sees the velocity through the filter, chatter.
 use super::p_pi::{FeedAxis, FeedAxisSample};
 use crate::check::{finite, non_negative, positive, require};
 use crate::filters::FirstOrderFilter;
-use crate::registry::{parse_params, Entry};
-use crate::{Controller, ControllerError, Measurement, PlantInterface, SignalSpec, Unit};
+use framework::{parse_params, Entry};
+use framework::{Controller, ControllerError, Measurement, PlantInterface, SignalSpec, Unit};
 use serde::Deserialize;
 
 /// Parameters of `stsmc` (SI units).
@@ -338,8 +338,7 @@ mod tests {
     use super::*;
     use crate::feed_axis::p_pi::test_rig::{plant, run, Rig};
     use crate::feed_axis::p_pi::{PPi, PPiParams};
-    use crate::Registry;
-    use models::micromilling::{MicroMillingCut, MicroMillingParams};
+    use models::feed_axis::micromilling::{MicroMillingCut, MicroMillingParams};
 
     #[test]
     fn default_surface_is_the_papers() {
@@ -434,7 +433,7 @@ mod tests {
         let build = |key: &str, value: f64| {
             let mut table = toml::Table::new();
             table.insert(key.into(), toml::Value::Float(value));
-            Registry::builtin()
+            framework::Registry::with([super::entry()])
                 .build("stsmc", "feed_axis", &table)
                 .err()
                 .unwrap()

@@ -27,8 +27,8 @@
 use super::p_pi::FeedAxis;
 use super::stsmc::{StsmcParams, SuperTwistingLaw};
 use crate::filters::{FilterError, FirstOrderFilter};
-use crate::registry::{parse_params, Entry};
-use crate::{Controller, ControllerError, Measurement, PlantInterface, SignalSpec, Unit};
+use framework::{parse_params, Entry};
+use framework::{Controller, ControllerError, Measurement, PlantInterface, SignalSpec, Unit};
 use serde::Deserialize;
 
 const NAME: &str = "stsmc-dob";
@@ -239,8 +239,7 @@ mod tests {
     use super::*;
     use crate::feed_axis::p_pi::test_rig::{run, Rig};
     use crate::feed_axis::stsmc::Stsmc;
-    use crate::Registry;
-    use models::micromilling::{MicroMillingCut, MicroMillingParams};
+    use models::feed_axis::micromilling::{MicroMillingCut, MicroMillingParams};
 
     fn cut() -> Option<MicroMillingCut> {
         Some(MicroMillingCut::new(MicroMillingParams::default()).unwrap())
@@ -343,7 +342,7 @@ mod tests {
         let params = StsmcDobParams::from_table(&table).unwrap();
         assert_eq!(params.observer.observer_bandwidth, 100.0);
         assert_eq!(params.sliding.surface_integral_gain, 50.0);
-        let names = Registry::builtin()
+        let names = framework::Registry::with([super::entry()])
             .build(NAME, "feed_axis", &table)
             .unwrap()
             .internals();
@@ -355,7 +354,7 @@ mod tests {
         let build = |key: &str, value: f64| {
             let mut table = toml::Table::new();
             table.insert(key.into(), toml::Value::Float(value));
-            Registry::builtin()
+            framework::Registry::with([super::entry()])
                 .build(NAME, "feed_axis", &table)
                 .err()
                 .unwrap()

@@ -23,9 +23,9 @@ use super::output_feedback_design::{
     self, Consistency, DesignError, DesignSpec, GlobalStabilityCheck,
 };
 use crate::check::{finite, positive};
-use crate::event::{Event, EventKind};
-use crate::registry::{parse_params, Entry};
-use crate::{Controller, ControllerError, Measurement, PlantInterface, SignalSpec, Unit};
+use framework::{parse_params, Entry};
+use framework::{Controller, ControllerError, Measurement, PlantInterface, SignalSpec, Unit};
+use framework::{Event, EventKind};
 use models::lathe::{Lathe, LatheParams, TOOLS};
 use serde::Deserialize;
 use std::f64::consts::TAU;
@@ -542,7 +542,7 @@ impl Controller for LatheForce {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::{Actuator, EffortKind, EventLevel, Registry};
+    use framework::{Actuator, EffortKind, EventLevel};
 
     fn plant() -> PlantInterface {
         let actuator = |joint: &str, kind, limit| Actuator {
@@ -718,7 +718,7 @@ mod tests {
     fn bad_parameters_are_named() {
         let build = |toml_text: &str| {
             let table: toml::Table = toml::from_str(toml_text).unwrap();
-            Registry::builtin()
+            framework::Registry::with([super::entry()])
                 .build(NAME, "lathe", &table)
                 .err()
                 .unwrap()

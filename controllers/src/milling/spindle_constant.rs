@@ -3,8 +3,8 @@
 
 use super::spindle_speed::{SpeedLoop, SpeedLoopParams};
 use crate::check::positive;
-use crate::registry::{parse_params, Entry};
-use crate::{Controller, ControllerError, Measurement, PlantInterface, SignalSpec};
+use framework::{parse_params, Entry};
+use framework::{Controller, ControllerError, Measurement, PlantInterface, SignalSpec};
 use serde::Deserialize;
 
 const NAME: &str = "spindle-constant";
@@ -77,12 +77,11 @@ impl Controller for SpindleConstant {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::Registry;
 
     #[test]
     fn bad_speeds_are_named_with_their_value() {
         let build = |text: &str| {
-            Registry::builtin()
+            framework::Registry::with([super::entry()])
                 .build(NAME, "milling", &text.parse::<toml::Table>().unwrap())
                 .err()
                 .unwrap()

@@ -1,26 +1,27 @@
-//! `spindle-optimal-linear`: the spindle-speed change δn of Kaliński & Galewski 2013 (cited as
-//! K(n)), eqs K(17)–K(18), that lowers the energy index K(3), with the optimal-linear fall-back:
+//! `spindle-optimal-linear`: the spindle-speed change δn of Kaliński & Galewski 2013,
+//! Kaliński eqs (17)–(18), that lowers the energy index Kaliński eq (3), with the optimal-linear
+//! fall-back:
 //! once n reaches n_max it falls linearly back to n0, and the optimal law resumes.
 //!
 //! **The law.** A change δn of the speed changes the regenerative delay (τ ∝ 1/n) and so the
-//! delayed part of the cutting force by `B_u·δn`, K(16):
+//! delayed part of the cutting force by `B_u·δn`, Kaliński eq (16):
 //! `B_u = Σ_flutes in cut k_d·a_p·(t + μ·n)·(n·u̇(t − τ))·τ/n_s` (N per rad/s; t, n the flute's
 //! tangential and radial directions as in `models::milling`, u̇(t − τ) the tool's velocity when
-//! the flute ahead passed the same angle, n_s the speed). Minimising K(3) over one control period
+//! the flute ahead passed the same angle, n_s the speed). Minimising Kaliński eq (3) over one control period
 //! h, `J = ½·u̇ᵀQ₁Mu̇ + ½·R·δn²` with `Δu̇ = M⁻¹B_u·δn·h`, gives
-//! `δn = −(h·Q₁/R)·B_uᵀu̇` — K(18) with the state-transition integral taken over one period
+//! `δn = −(h·Q₁/R)·B_uᵀu̇` — Kaliński eq (18) with the state-transition integral taken over one period
 //! (Φ ≈ I, the estimate used: the controller cannot measure Φ of the cut it does not model), so
-//! K(18)'s potential-energy term (through T₂) vanishes at this order and the tool's mass M cancels
-//! (K(18) as printed omits the M⁻¹ of K(1)'s input matrix, which cancels the Mᵀ of the kinetic
-//! term). δn is clipped to ±U, K(10). The command n accumulates δn, never below n0.
+//! Kaliński eq (18)'s potential-energy term (through T₂) vanishes at this order and the tool's mass M cancels
+//! (Kaliński eq (18) as printed omits the M⁻¹ of Kaliński eq (1)'s input matrix, which cancels the Mᵀ of the kinetic
+//! term). δn is clipped to ±U, Kaliński eq (10). The command n accumulates δn, never below n0.
 //!
 //! **Measured:** the spindle's angle and speed and the tool tip's velocities (`tool_x.velocity`,
 //! `tool_y.velocity`). The cut's parameters are the controller's model of the process.
 
 use super::spindle_speed::{check_speeds, SpeedLoop, SpeedLoopParams};
 use crate::check::{finite, positive};
-use crate::registry::{parse_params, Entry};
-use crate::{Controller, ControllerError, Measurement, PlantInterface, SignalSpec, Unit};
+use framework::{parse_params, Entry};
+use framework::{Controller, ControllerError, Measurement, PlantInterface, SignalSpec, Unit};
 use models::milling::{force_direction, MillingCutParams};
 use serde::Deserialize;
 use std::collections::VecDeque;
@@ -38,11 +39,11 @@ pub struct OptimalLinearParams {
     pub maximum_speed: f64,
     /// Time of the linear fall from n_max to n0, s.
     pub fall_time: f64,
-    /// Q₁ of K(3), dimensionless.
+    /// Q₁ of Kaliński eq (3), dimensionless.
     pub kinetic_weight: f64,
-    /// R of K(3), N·m·s³/rad² (makes δn rad/s).
+    /// R of Kaliński eq (3), N·m·s³/rad² (makes δn rad/s).
     pub control_weight: f64,
-    /// U of K(10): largest |δn| per control period, rad/s.
+    /// U of Kaliński eq (10): largest |δn| per control period, rad/s.
     pub speed_change_limit: f64,
     /// The controller's model of the cut (the keys of the machine's `[process.cut]`).
     pub cut: MillingCutParams,
@@ -74,7 +75,7 @@ pub struct OptimalLinearGains {
     pub limit: f64,
 }
 
-/// Checks the parameters and returns the gain and the limit of K(18) and K(10).
+/// Checks the parameters and returns the gain and the limit of Kaliński eq (18) and Kaliński eq (10).
 pub fn design(params: &OptimalLinearParams) -> Result<OptimalLinearGains, ControllerError> {
     let p = params;
     check_speeds(NAME, p.nominal_speed, p.maximum_speed)?;
@@ -106,7 +107,7 @@ pub fn design(params: &OptimalLinearParams) -> Result<OptimalLinearGains, Contro
     })
 }
 
-/// ∂F/∂n of K(16): the delayed force's change per rad/s of spindle speed, N·s/rad.
+/// ∂F/∂n of Kaliński eq (16): the delayed force's change per rad/s of spindle speed, N·s/rad.
 pub fn speed_sensitivity(
     cut: &MillingCutParams,
     angle: f64,
@@ -177,7 +178,7 @@ impl OptimalLinear {
         Some([v0[0] + w * (v1[0] - v0[0]), v0[1] + w * (v1[1] - v0[1])])
     }
 
-    /// K(18) over one period, clipped by K(10): δn, rad/s.
+    /// Kaliński eq (18) over one period, clipped by Kaliński eq (10): δn, rad/s.
     fn optimal_change(&mut self, angle: f64, speed: f64, velocity: [f64; 2], period: f64) -> f64 {
         let pitch = self.params.cut.pitch();
         if self.history.back().is_none_or(|(a, _)| angle > *a) {
@@ -271,12 +272,11 @@ impl Controller for OptimalLinear {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::Registry;
 
     #[test]
     fn bad_parameters_are_named_with_their_value() {
         let build = |text: &str| {
-            Registry::builtin()
+            framework::Registry::with([super::entry()])
                 .build(NAME, "milling", &text.parse::<toml::Table>().unwrap())
                 .err()
                 .unwrap()

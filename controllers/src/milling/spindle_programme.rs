@@ -4,8 +4,8 @@
 
 use super::spindle_speed::{check_speeds, SpeedLoop, SpeedLoopParams};
 use crate::check::positive;
-use crate::registry::{parse_params, Entry};
-use crate::{Controller, ControllerError, Measurement, PlantInterface, SignalSpec};
+use framework::{parse_params, Entry};
+use framework::{Controller, ControllerError, Measurement, PlantInterface, SignalSpec};
 use serde::Deserialize;
 use std::f64::consts::TAU;
 

@@ -8,7 +8,7 @@
 //! the integrator removes; its tooth-frequency ripple lies far above the loop's bandwidth.
 
 use crate::check::{finite, positive};
-use crate::{ControllerError, Measurement, PlantInterface, SignalSpec, Unit};
+use framework::{ControllerError, Measurement, PlantInterface, SignalSpec, Unit};
 use serde::Deserialize;
 
 /// Parameters of the spindle-speed loop (SI units).

@@ -20,9 +20,9 @@
 use super::guidance::{wheel_actuators, Guide};
 use super::model::PlatformModel;
 use crate::check::{non_negative, positive};
-use crate::event::{Event, EventKind};
-use crate::registry::{parse_params, Entry};
-use crate::{Controller, ControllerError, Measurement, PlantInterface, SignalSpec, Unit};
+use framework::{parse_params, Entry};
+use framework::{Controller, ControllerError, Measurement, PlantInterface, SignalSpec, Unit};
+use framework::{Event, EventKind};
 use nalgebra::{Matrix2, Matrix4};
 use serde::Deserialize;
 
@@ -282,7 +282,7 @@ mod tests {
     #[test]
     fn rejects_bad_parameters() {
         let build = |text: &str| {
-            crate::Registry::builtin()
+            framework::Registry::with([super::entry()])
                 .build(NAME, "platform", &text.parse::<toml::Table>().unwrap())
                 .err()
                 .unwrap()

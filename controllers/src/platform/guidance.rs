@@ -8,7 +8,7 @@
 //! heading (the platform is placed there).
 
 use super::model::{Odometry, PlatformModel};
-use crate::{ControllerError, Measurement, PlantInterface, SignalSpec, Unit};
+use framework::{ControllerError, Measurement, PlantInterface, SignalSpec, Unit};
 
 /// Signals the platform controllers read.
 const SIGNALS: [&str; 7] = [

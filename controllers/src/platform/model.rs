@@ -37,7 +37,7 @@
 //! that motion parameters do not change within Δt).
 
 use crate::check::{non_negative, positive};
-use crate::ControllerError;
+use framework::ControllerError;
 use serde::Deserialize;
 
 /// The platform's geometry and mass data as the controller assumes them (SI). Defaults describe

@@ -17,8 +17,8 @@ use super::guidance::{wheel_actuators, Guide};
 use super::model::PlatformModel;
 use crate::check::{non_negative, positive};
 use crate::filters::FirstOrderFilter;
-use crate::registry::{parse_params, Entry};
-use crate::{Controller, ControllerError, Measurement, PlantInterface, SignalSpec, Unit};
+use framework::{parse_params, Entry};
+use framework::{Controller, ControllerError, Measurement, PlantInterface, SignalSpec, Unit};
 use serde::Deserialize;
 
 const NAME: &str = "pid";
@@ -217,7 +217,7 @@ mod tests {
     #[test]
     fn rejects_bad_parameters() {
         let build = |text: &str| {
-            crate::Registry::builtin()
+            framework::Registry::with([super::entry()])
                 .build(NAME, "platform", &text.parse::<toml::Table>().unwrap())
                 .err()
                 .unwrap()

@@ -8,8 +8,8 @@
 //! disturbances to it.
 
 use crate::check::{finite, positive};
-use crate::registry::{parse_params, Entry};
-use crate::{Controller, ControllerError, Measurement, PlantInterface, SignalSpec, Unit};
+use framework::{parse_params, Entry};
+use framework::{Controller, ControllerError, Measurement, PlantInterface, SignalSpec, Unit};
 use serde::Deserialize;
 
 const NAME: &str = "crank-pi";
@@ -154,7 +154,7 @@ impl Controller for CrankPi {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::{Actuator, EffortKind};
+    use framework::{Actuator, EffortKind};
 
     fn plant(limit: f64) -> PlantInterface {
         PlantInterface {
@@ -231,7 +231,7 @@ mod tests {
     #[test]
     fn bad_parameters_are_named_with_their_value() {
         let build = |text: &str| {
-            Registry::builtin()
+            framework::Registry::with([super::entry()])
                 .build(NAME, "whitworth", &text.parse::<toml::Table>().unwrap())
                 .err()
                 .unwrap()
@@ -289,6 +289,4 @@ mod tests {
         let err = pi.reset(&plant(1.0)).unwrap_err();
         assert!(err.to_string().contains("spindle.velocity"), "{err}");
     }
-
-    use crate::Registry;
 }

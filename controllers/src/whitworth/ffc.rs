@@ -15,8 +15,8 @@ use super::slider::SliderModel;
 use super::task::{LawInput, TaskController, TaskDesign, TaskLaw, TaskParams};
 use crate::check::{non_negative, positive};
 use crate::design::{ackermann, second_order_polynomial};
-use crate::registry::{parse_params, Entry};
-use crate::{ControllerError, SignalSpec, Unit};
+use framework::{parse_params, Entry};
+use framework::{ControllerError, SignalSpec, Unit};
 use serde::Deserialize;
 
 /// Parameters of `ffc` (SI units).
@@ -138,7 +138,7 @@ pub(crate) fn entry() -> Entry {
 mod tests {
     use super::super::test_plant::Plant;
     use super::*;
-    use crate::{Controller, Registry};
+    use framework::Controller;
     use models::reference::Reference;
 
     #[test]
@@ -162,7 +162,7 @@ mod tests {
                 "controller `ffc`: params.damping_ratio = -1: must be ≥ 0",
             ),
         ] {
-            let err = Registry::builtin()
+            let err = framework::Registry::with([super::entry()])
                 .build("ffc", "whitworth", &table.parse::<toml::Table>().unwrap())
                 .err()
                 .unwrap();

@@ -14,8 +14,8 @@ use super::slider::SliderModel;
 use super::task::{TaskController, TaskDesign, TaskParams};
 use crate::check::positive;
 use crate::design::{lqr, SliderWeights};
-use crate::registry::{parse_params, Entry};
-use crate::ControllerError;
+use framework::ControllerError;
+use framework::{parse_params, Entry};
 use nalgebra::DMatrix;
 use serde::Deserialize;
 
@@ -84,7 +84,7 @@ pub(crate) fn entry() -> Entry {
 mod tests {
     use super::super::test_plant::Plant;
     use super::*;
-    use crate::{Controller, Registry};
+    use framework::Controller;
     use models::reference::Reference;
 
     #[test]
@@ -109,7 +109,7 @@ mod tests {
                 "controller `lqt`: params.weights.position = -1: must be > 0",
             ),
         ] {
-            let err = Registry::builtin()
+            let err = framework::Registry::with([super::entry()])
                 .build("lqt", "whitworth", &table.parse::<toml::Table>().unwrap())
                 .err()
                 .unwrap();

@@ -28,8 +28,8 @@ use super::slider::SliderModel;
 use super::task::{LawInput, TaskController, TaskDesign, TaskLaw, TaskParams};
 use crate::check::positive;
 use crate::design::{slider_hyperplane, SliderWeights};
-use crate::registry::{parse_params, Entry};
-use crate::{ControllerError, SignalSpec, Unit};
+use framework::{parse_params, Entry};
+use framework::{ControllerError, SignalSpec, Unit};
 use serde::Deserialize;
 
 /// Parameters of `osmc` (SI units).
@@ -237,11 +237,15 @@ pub(crate) fn entry() -> Entry {
 mod tests {
     use super::super::test_plant::{cut_velocity_errors, Contact, Plant};
     use super::*;
-    use crate::{Controller, Registry};
+    use framework::Controller;
     use models::reference::Reference;
 
     fn build_with(table: &str) -> Result<Box<dyn Controller>, ControllerError> {
-        Registry::builtin().build("osmc", "whitworth", &table.parse::<toml::Table>().unwrap())
+        framework::Registry::with([super::entry()]).build(
+            "osmc",
+            "whitworth",
+            &table.parse::<toml::Table>().unwrap(),
+        )
     }
 
     #[test]

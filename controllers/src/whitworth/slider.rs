@@ -4,7 +4,7 @@
 //! **Effective mass (Perrusquía eqs (7)–(9)).** The paper writes `m·ẍ + G = (Σρ_i²)⁻¹·ρ_x·(τ − ρ_x·F_x)`. The sum
 //! `Σρ_i²` is the generalised inertia `ρᵀ·M′·ρ` of its extended model taken with a unit metric
 //! (every extended coordinate weighing the same); with the twin's link masses it is
-//! `M(q) = Σ m_i|∂c_i/∂q|² + I_i(∂θ_i/∂q)²` ([`models::whitworth_dynamics`]). Differentiating
+//! `M(q) = Σ m_i|∂c_i/∂q|² + I_i(∂θ_i/∂q)²` ([`models::whitworth::dynamics`]). Differentiating
 //! `y = y(q)` twice and using `M·q̈ + ½M′q̇² + ∂V/∂q = τ + ρ_y·f_y` gives, exactly,
 //! `ÿ = (ρ_y/M)·τ + (ρ_y²/M)·f_y − (ρ_y/M)·∂V/∂q + (ρ_y′ − ρ_y·M′/2M)·q̇²`.
 //! With the virtual-work map `τ = ρ_y·u` (Perrusquía eq (11)) this is Perrusquía eq (7) with the ram's *effective* mass
@@ -24,8 +24,8 @@
 //! **Sign of ẋ/q̇.** `sign(ẏ/q̇) = sign(ρ_y(q))`, taken from the model at the measured crank angle
 //! (the paper's "off-line" sign), so it is defined when the crank stands still.
 
+use models::whitworth::dynamics::{Dynamics, DynamicsError};
 use models::whitworth::{Geometry, GeometryError, Stroke};
-use models::whitworth_dynamics::{Dynamics, DynamicsError};
 use nalgebra::DMatrix;
 
 /// The slider model of one linkage, with the compensator and the nominal design mass.
@@ -166,7 +166,7 @@ fn maximum(stroke: &Stroke, f: impl Fn(f64) -> f64) -> (f64, f64) {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use models::whitworth_dynamics::LinkMasses;
+    use models::whitworth::dynamics::LinkMasses;
 
     fn twin() -> SliderModel {
         SliderModel::new(Dynamics::new(Geometry::default(), LinkMasses::default(), 9.81).unwrap())

@@ -13,8 +13,8 @@ use super::osmc::{second_order_gains, SecondOrderGains, SecondOrderSliding};
 use super::slider::SliderModel;
 use super::task::{TaskController, TaskDesign, TaskParams};
 use crate::check::positive;
-use crate::registry::{parse_params, Entry};
-use crate::ControllerError;
+use framework::ControllerError;
+use framework::{parse_params, Entry};
 use serde::Deserialize;
 
 /// Parameters of `smc2` (SI units).
@@ -88,7 +88,7 @@ pub(crate) fn entry() -> Entry {
 mod tests {
     use super::super::test_plant::{cut_velocity_errors, Contact, Plant};
     use super::*;
-    use crate::{Controller, Registry};
+    use framework::Controller;
 
     #[test]
     fn surface_is_hand_set() {
@@ -96,7 +96,7 @@ mod tests {
         let m = smc2.design().slider.nominal_mass();
         assert_eq!(smc2.law().gains().surface, [m * 10.0, m]);
         for table in ["surface_slope = 0.0", "k1 = 0.0", "reaching_rate = -2.0"] {
-            let err = Registry::builtin()
+            let err = framework::Registry::with([super::entry()])
                 .build("smc2", "whitworth", &table.parse::<toml::Table>().unwrap())
                 .err()
                 .unwrap();

@@ -24,7 +24,7 @@
 //! torque step at the bottom switch. Friction is not modelled; the closed loop absorbs the
 //! remainder at the hand-over.
 //!
-//! [`Dynamics`]: models::whitworth_dynamics::Dynamics
+//! [`Dynamics`]: models::whitworth::dynamics::Dynamics
 
 use super::slider::SliderModel;
 use models::velocity_profile::VelocityProfile;
@@ -54,7 +54,7 @@ impl Mode {
         }
     }
 
-    /// The mode's identifier in [`crate::EventKind::ModeSwitch`] events.
+    /// The mode's identifier in [`framework::EventKind::ModeSwitch`] events.
     pub fn identifier(self) -> &'static str {
         match self {
             Mode::Tracking => "tracking",
@@ -219,8 +219,8 @@ impl StrokeSwitch {
 mod tests {
     use super::*;
     use models::velocity_profile::ProfileParams;
+    use models::whitworth::dynamics::{Dynamics, LinkMasses};
     use models::whitworth::Geometry;
-    use models::whitworth_dynamics::{Dynamics, LinkMasses};
 
     fn twin() -> (SliderModel, VelocityProfile) {
         let slider = SliderModel::new(

@@ -22,11 +22,11 @@
 use super::slider::SliderModel;
 use super::switching::{Mode, ReturnPlan, StrokeSwitch};
 use crate::check::positive;
-use crate::event::Event;
-use crate::{Controller, ControllerError, Measurement, PlantInterface, SignalSpec, Unit};
+use framework::Event;
+use framework::{Controller, ControllerError, Measurement, PlantInterface, SignalSpec, Unit};
 use models::velocity_profile::{ProfileError, ProfileParams, ProfileSample, VelocityProfile};
+use models::whitworth::dynamics::{Dynamics, DynamicsError, LinkMasses};
 use models::whitworth::{Geometry, GeometryError};
-use models::whitworth_dynamics::{Dynamics, DynamicsError, LinkMasses};
 use serde::Deserialize;
 
 /// Where the reference comes from.
@@ -655,7 +655,7 @@ mod tests {
     fn internals_cover_the_shared_signals_and_the_law() {
         let mut controller = osmc(TaskParams::default()).unwrap();
         controller.reset(&Plant::twin().interface()).unwrap();
-        let names = crate::signal::names(&controller.internals());
+        let names = framework::signal_names(&controller.internals());
         for name in [
             "mode",
             "reference",

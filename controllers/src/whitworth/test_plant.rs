@@ -1,11 +1,11 @@
 //! A small stand-in for the twin in the controllers' tests: the reduced model of
-//! `models::whitworth_dynamics` integrated with RK4, the crank torque held over each control
+//! `models::whitworth::dynamics` integrated with RK4, the crank torque held over each control
 //! period, the contact force of Perrusquía eq (40) on the ram, and the twin's signal names.
 
-use crate::{Actuator, Controller, EffortKind, Measurement, PlantInterface};
+use framework::{Actuator, Controller, EffortKind, Measurement, PlantInterface};
 use models::reference::Reference;
+use models::whitworth::dynamics::{Dynamics, LinkMasses};
 use models::whitworth::Geometry;
-use models::whitworth_dynamics::{Dynamics, LinkMasses};
 use std::f64::consts::FRAC_PI_2;
 
 /// Perrusquía eq (40): `force` N upwards while the ram moves down inside `[y_b, y_a]`.

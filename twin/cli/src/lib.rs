@@ -1,8 +1,23 @@
-//! The applications built on the twin engine: the studies behind `twin sweep`, the seed papers'
-//! reproductions behind `twin reproduce`, and the offline analyses behind `twin analyze`. The
-//! `twin` binary (`main.rs`) is their command line.
+//! The `twin` command line and the applications built on the twin engine: one module per
+//! command (its clap arguments and its body), the studies behind `twin sweep`, the seed papers'
+//! reproductions behind `twin reproduce`, and the offline analyses behind `twin analyze`.
+//! [`command_line`] ties the commands together; the `twin` binary (`main.rs`) only parses,
+//! dispatches and exits.
 
 pub mod analysis;
+pub mod bench;
+pub mod command_line;
+mod engine_option;
+pub mod failure;
+pub mod fmu;
 pub mod frf;
+pub mod linearize;
+pub mod list;
+mod reference;
 pub mod reproduce;
+pub mod run;
+pub mod salvage;
+mod signals;
 pub mod study;
+pub mod sweep;
+pub mod usage;

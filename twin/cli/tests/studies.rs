@@ -1,7 +1,6 @@
 //! Studies: the run plan, reproducible single runs, failures recorded without stopping the
 //! study, resume, shards merged byte-identical to one machine, and refusals before any run.
 
-use controllers::Registry;
 use std::path::{Path, PathBuf};
 use twin::StopFlag;
 use twin_cli::study::{merge, run_study, RecordMode, Shard, Spec, Study, StudyOptions};
@@ -21,7 +20,7 @@ fn study(seed: u64) -> Study {
         &["urdf.link.ram.mass=normal(5,0.5,4,6)".into()],
         3,
         seed,
-        &Registry::builtin(),
+        &controllers::builtin(),
     )
     .unwrap_or_else(|e| panic!("{e}"))
 }
@@ -39,8 +38,13 @@ fn options(out: &Path) -> StudyOptions {
 }
 
 fn run(study: &Study, options: &StudyOptions) -> twin_cli::study::StudyOutcome {
-    run_study(study, options, &Registry::builtin(), &StopFlag::default())
-        .unwrap_or_else(|e| panic!("{e}"))
+    run_study(
+        study,
+        options,
+        &controllers::builtin(),
+        &StopFlag::default(),
+    )
+    .unwrap_or_else(|e| panic!("{e}"))
 }
 
 fn read(path: &Path) -> String {
@@ -140,7 +144,7 @@ fn failed_runs_are_recorded_and_resume_finishes_a_study() {
         &[],
         2,
         1,
-        &Registry::builtin(),
+        &controllers::builtin(),
     )
     .unwrap();
     let out = scratch("failures");
@@ -188,7 +192,7 @@ fn another_study_in_the_same_folder_is_refused() {
     let error = run_study(
         &study(2),
         &options(&out),
-        &Registry::builtin(),
+        &controllers::builtin(),
         &StopFlag::default(),
     )
     .unwrap_err();
@@ -207,7 +211,7 @@ fn bad_studies_are_one_line_errors_before_any_run_and_leave_nothing() {
             &strings(random),
             samples,
             0,
-            &Registry::builtin(),
+            &controllers::builtin(),
         )
     };
     let cases: [(Result<Study, _>, &str); 6] = [
@@ -228,7 +232,7 @@ fn bad_studies_are_one_line_errors_before_any_run_and_leave_nothing() {
     let error = run_study(
         &unknown_key,
         &options(&out),
-        &Registry::builtin(),
+        &controllers::builtin(),
         &StopFlag::default(),
     )
     .unwrap_err();
@@ -246,13 +250,13 @@ fn bad_studies_are_one_line_errors_before_any_run_and_leave_nothing() {
         &[],
         1,
         0,
-        &Registry::builtin(),
+        &controllers::builtin(),
     )
     .unwrap();
     let error = run_study(
         &bad_gain,
         &options(&out),
-        &Registry::builtin(),
+        &controllers::builtin(),
         &StopFlag::default(),
     )
     .unwrap_err()

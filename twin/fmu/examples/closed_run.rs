@@ -9,7 +9,7 @@
 //! `cargo run --release -p twin-fmu --example closed_run -- SCENARIO DURATION OUT.csv [--set K=V]
 //! [--controller NAME] [--load JOINT FROM EFFORT] [--step-input AT EFFORT]`
 
-use controllers::{Controller, ControllerError, Measurement, PlantInterface, Registry};
+use framework::{Controller, ControllerError, Measurement, PlantInterface};
 use std::fmt::Write as _;
 use twin::{Observer, ObserverError, Overrides, SignalLayout, StepView, Twin};
 
@@ -116,7 +116,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     };
     let mut options = options(rest)?;
     (options.overrides.set).insert(0, format!("duration={duration}"));
-    let loaded = twin::load_scenario(scenario, &options.overrides, &Registry::builtin())?;
+    let loaded = twin::load_scenario(scenario, &options.overrides, &controllers::builtin())?;
     let scenario = loaded.scenario.clone();
     let mut twin = match options.step_input {
         Some(step_input) => Twin::with_controller(loaded, Box::new(step_input))?,

@@ -1,8 +1,8 @@
 //! modelDescription.xml of a scenario's FMU (FMI 2.0 co-simulation) and its GUID: its variables,
 //! for the plant alone or the closed loop with its controller, and their value references.
 
-use crate::parameters::{Number, Parameter};
-use controllers::EffortKind;
+use crate::parameters::{unit_name, Number, Parameter};
+use framework::EffortKind;
 use twin::Simulator;
 
 /// What one variable of the FMU holds.
@@ -168,9 +168,8 @@ fn about_setpoint(simulator: &Simulator, k: usize) -> About {
     let reference = specs.iter().position(|s| s.name == SETPOINTS[k]);
     let unit = reference.map_or(String::new(), |i| unit_name(simulator.signal_units()[i]));
     let text = format!(
-        "added to the scenario's {} ({}) from the step's start on, held over it",
-        SETPOINTS[k],
-        reference.map_or("", |i| specs[i].plot.as_str())
+        "added to the scenario's {} from the step's start on, held over it",
+        SETPOINTS[k]
     );
     (
         format!("setpoint.{}", SETPOINTS[k]),
@@ -204,9 +203,11 @@ fn about_signal(simulator: &Simulator, i: usize, true_value: bool) -> About {
         let text = format!("{}: the true value", spec.name);
         (format!("true.{}", spec.name), unit, text, None)
     } else {
+        // Named by the signal itself: several signals share one plot (the reference, its rate
+        // and its acceleration sit on the table position's).
         let text = format!(
-            "{} as the sensors read it at the last control update",
-            spec.plot
+            "{}, as the sensors read it at the last control update",
+            spec.name
         );
         (format!("measured.{}", spec.name), unit, text, None)
     }
@@ -255,11 +256,6 @@ pub fn model_identifier(scenario: &str) -> String {
         .map(|c| if c.is_ascii_alphanumeric() { c } else { '_' })
         .collect();
     format!("twin_{tail}")
-}
-
-/// An SI unit written in ASCII, as FMI unit names are compared as strings.
-pub fn unit_name(unit: &str) -> String {
-    unit.replace('·', ".").replace('²', "2")
 }
 
 /// The head of modelDescription.xml, with `guid` in its place.

@@ -1,12 +1,11 @@
 //! One FMU instance: the simulator, its inputs and parameters, the history that makes its state,
 //! and where it is in the FMI 2.0 life cycle.
 
+use crate::closed_loop::simulator;
 use crate::description::{model_description, variables, Role, Variable};
 use crate::package::{KIND_FILE, SCENARIO_FILE};
 use crate::parameters::{assignments, parameters, Number, Parameter};
-use crate::simulator;
 use crate::state::{History, State};
-use controllers::Registry;
 use std::path::PathBuf;
 use twin::{Overrides, Scenario, Simulator};
 
@@ -411,7 +410,7 @@ fn load(
         set: set.to_vec(),
         ..Overrides::default()
     };
-    let registry = Registry::builtin();
+    let registry = controllers::builtin();
     let loaded = Scenario::from_toml(text, file, Some(folder))
         .and_then(|s| s.overrides(&overrides))
         .and_then(|s| s.build(&registry))
@@ -428,7 +427,7 @@ mod tests {
     /// the FMU's kind) and its GUID.
     fn resources(name: &str, controlled: bool) -> (tempfile::TempDir, String, String) {
         let loaded = Scenario::builtin(name)
-            .and_then(|s| s.build(&Registry::builtin()))
+            .and_then(|s| s.build(&controllers::builtin()))
             .unwrap();
         let dir = tempfile::tempdir().unwrap();
         let mut table: toml::Table = toml::from_str(&loaded.toml).unwrap();
@@ -439,7 +438,7 @@ mod tests {
         std::fs::write(dir.path().join(SCENARIO_FILE), &text).unwrap();
         let kind = format!("controller = {controlled}\n");
         std::fs::write(dir.path().join(KIND_FILE), kind).unwrap();
-        let simulator = simulator(loaded, controlled, &Registry::builtin()).unwrap();
+        let simulator = simulator(loaded, controlled, &controllers::builtin()).unwrap();
         let variables = variables(
             &simulator,
             controlled,
@@ -558,7 +557,7 @@ mod tests {
         let builder = Scenario::builtin("feed-axis-micromilling").unwrap();
         let from_set = (builder.clone())
             .assign("controller.params.mass_estimate=-1.0")
-            .and_then(|s| s.build(&Registry::builtin()))
+            .and_then(|s| s.build(&controllers::builtin()))
             .unwrap_err()
             .to_string();
         let reason = |message: &str| message.split_once(": ").unwrap().1.to_string();
@@ -583,8 +582,8 @@ mod tests {
         let set = builder
             .assign("controller.params.position_gain=60.0")
             .unwrap();
-        let loaded = set.build(&Registry::builtin()).unwrap();
-        let mut direct = Simulator::with_controller(loaded, &Registry::builtin()).unwrap();
+        let loaded = set.build(&controllers::builtin()).unwrap();
+        let mut direct = Simulator::with_controller(loaded, &controllers::builtin()).unwrap();
         let expected = closed_loop(&mut direct, 200);
         assert_eq!(
             instance.simulator.measured(),

@@ -8,37 +8,14 @@
 //! ([`package()`]).
 
 pub mod api;
+mod closed_loop;
 mod description;
+mod error;
 mod instance;
 mod package;
 mod parameters;
 mod state;
 
-use controllers::Registry;
 pub use description::model_identifier;
+pub use error::FmuError;
 pub use package::{package, Packed, KIND_FILE, SCENARIO_FILE};
-use thiserror::Error;
-use twin::{LoadedScenario, Simulator, TwinError};
-
-/// Why an FMU could not be made.
-#[derive(Debug, Error)]
-pub enum FmuError {
-    #[error("{0}")]
-    Scenario(String),
-    #[error("FMU library {path}: {reason}; build it with `cargo build --release -p twin-fmu`")]
-    Library { path: String, reason: String },
-}
-
-/// The FMU's simulator: the plant alone, or with `controlled` the closed loop with the
-/// scenario's controller built from `registry`.
-fn simulator(
-    loaded: LoadedScenario,
-    controlled: bool,
-    registry: &Registry,
-) -> Result<Simulator, TwinError> {
-    if controlled {
-        Simulator::with_controller(loaded, registry)
-    } else {
-        Simulator::new(loaded)
-    }
-}

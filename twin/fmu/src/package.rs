@@ -2,10 +2,11 @@
 //! scenario with its URDF and the FMU's kind under resources/, in a zip archive (stored, not
 //! compressed).
 
+use crate::closed_loop::simulator;
 use crate::description::{model_description, model_identifier, variables};
+use crate::error::FmuError;
 use crate::parameters::parameters;
-use crate::{simulator, FmuError};
-use controllers::Registry;
+use framework::Registry;
 use std::path::Path;
 use twin::LoadedScenario;
 

@@ -3,7 +3,7 @@
 //! `[sensors]` tables, named by their dotted key (array entries by index), applied as `--set`
 //! assignments ([`twin::Overrides`]).
 
-use controllers::EffortKind;
+use framework::EffortKind;
 use twin::Simulator;
 
 /// The tables whose numbers are parameters, as key paths into the scenario.
@@ -228,22 +228,26 @@ fn unit(name: &str, simulator: &Simulator) -> Option<String> {
         ["plant", "joint", j, "stiffness"] => per_kind(j, "N/m", "N·m/rad"),
         _ => None,
     };
-    unit.map(|u| crate::description::unit_name(&u))
+    unit.map(|u| unit_name(&u))
+}
+
+/// An SI unit written in ASCII, as FMI unit names are compared as strings.
+pub fn unit_name(unit: &str) -> String {
+    unit.replace('·', ".").replace('²', "2")
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use controllers::Registry;
     use twin::Scenario;
 
     /// The scenario's numbers with its controller in the loop.
     fn found(name: &str) -> Vec<Parameter> {
         let loaded = Scenario::builtin(name)
-            .and_then(|s| s.build(&Registry::builtin()))
+            .and_then(|s| s.build(&controllers::builtin()))
             .unwrap();
         let toml = loaded.toml.clone();
-        let simulator = Simulator::with_controller(loaded, &Registry::builtin()).unwrap();
+        let simulator = Simulator::with_controller(loaded, &controllers::builtin()).unwrap();
         parameters(&toml, &simulator, true)
     }
 

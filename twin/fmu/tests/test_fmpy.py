@@ -29,8 +29,8 @@ from fmpy.logging import addLoggerProxy
 from fmpy.validation import validate_fmu
 
 ROOT = pathlib.Path(__file__).resolve().parents[3]
-TARGET = pathlib.Path(os.environ.get("CARGO_TARGET_DIR", ROOT / "target"))
-TWIN = pathlib.Path(os.environ.get("TWIN", TARGET / "release" / "twin"))
+TARGET = pathlib.Path(os.environ.get("CARGO_TARGET_DIR", ROOT / "target")).resolve()
+TWIN = pathlib.Path(os.environ.get("TWIN", TARGET / "release" / "twin")).resolve()
 
 MACHINES = [
     "whitworth-crank-pi",

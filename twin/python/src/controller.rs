@@ -4,7 +4,7 @@
 //! and `Scenario.run` then raises the reason.
 
 use crate::errors::ControllerError as PyControllerError;
-use controllers::{Controller, ControllerError, Measurement, PlantInterface};
+use framework::{Controller, ControllerError, Measurement, PlantInterface};
 use numpy::{PyArray1, PyReadonlyArray1};
 use pyo3::exceptions::PyKeyboardInterrupt;
 use pyo3::prelude::*;

@@ -26,7 +26,7 @@ fn scenarios() -> Vec<&'static str> {
 /// The registry's controllers as `(name, machine, summary)`; machine `*` fits any machine.
 #[pyfunction(name = "controllers")]
 fn registry_controllers() -> Vec<(&'static str, &'static str, &'static str)> {
-    ::controllers::Registry::builtin()
+    ::controllers::builtin()
         .entries()
         .iter()
         .map(|entry| (entry.name, entry.machine, entry.summary))
@@ -37,7 +37,7 @@ fn registry_controllers() -> Vec<(&'static str, &'static str, &'static str)> {
 /// efforts, stepped from Rust: the baseline of the Python step API's overhead (benchmarks).
 #[pyfunction]
 fn engine_step_seconds(scenario: &scenario::Scenario, steps: usize) -> PyResult<f64> {
-    simulator::engine_step_seconds(scenario, steps)
+    simulator::engine_step_seconds(scenario.load()?, steps)
 }
 
 #[pymodule]

@@ -111,8 +111,9 @@ impl RunResult {
         series: Series,
         recording: Option<PathBuf>,
     ) -> PyResult<Self> {
-        let layout = (series.layout)
-            .ok_or_else(|| crate::TwinError::new_err("the run ended before its first step"))?;
+        let layout = (series.layout).ok_or_else(|| {
+            crate::errors::TwinError::new_err("the run ended before its first step")
+        })?;
         let specs = &layout.specs;
         // As `twin run --summary` writes it, read as Python reads JSON.
         let json = twin::summary::to_json(summary).to_string();

@@ -2,10 +2,9 @@
 //! handed out as a simulator.
 
 use crate::controller::PythonController;
-use crate::errors::{from_scenario, from_twin};
+use crate::errors::{from_scenario, from_twin, ScenarioError};
 use crate::result::{RunResult, Series};
 use crate::simulator::Simulator;
-use controllers::Registry;
 use pyo3::exceptions::PyKeyboardInterrupt;
 use pyo3::prelude::*;
 use pyo3::types::{PyBool, PyDict, PyFloat, PyList, PyString, PyTuple};
@@ -32,7 +31,7 @@ impl Scenario {
     /// scenario, the controller's parameters, then the machine's `[process]`, the sensors, the
     /// metrics and the faults against the plant (a twin is bound and dropped, about 1 ms).
     fn checked(builder: ScenarioBuilder) -> PyResult<Self> {
-        let loaded = builder.clone().build(&Registry::builtin());
+        let loaded = builder.clone().build(&controllers::builtin());
         let loaded = loaded.map_err(from_scenario)?;
         let scenario = loaded.scenario.clone();
         twin::Twin::new(loaded).map_err(from_twin)?;
@@ -41,7 +40,7 @@ impl Scenario {
 
     /// The scenario with its controller, ready to be bound into a twin.
     pub fn load(&self) -> PyResult<LoadedScenario> {
-        let built = self.builder.clone().build(&Registry::builtin());
+        let built = self.builder.clone().build(&controllers::builtin());
         built.map_err(from_scenario)
     }
 }
@@ -133,13 +132,13 @@ impl Scenario {
     /// The plant's measured signals' names, in the order of a controller's `measurements`.
     #[getter]
     fn signals(&self) -> PyResult<Vec<String>> {
-        Ok(Simulator::from_scenario(self)?.signal_names())
+        Ok(Simulator::from_loaded(self.load()?)?.signal_names())
     }
 
     /// The actuated joints' names, in the order of the efforts.
     #[getter]
     fn actuators(&self) -> PyResult<Vec<String>> {
-        Ok(Simulator::from_scenario(self)?.actuator_names())
+        Ok(Simulator::from_loaded(self.load()?)?.actuator_names())
     }
 
     /// The scenario's TOML after the changes.
@@ -150,7 +149,7 @@ impl Scenario {
 
     /// The plant without its controller, to step from Python (`Simulator`).
     fn simulator(&self) -> PyResult<Simulator> {
-        Simulator::from_scenario(self)
+        Simulator::from_loaded(self.load()?)
     }
 
     /// Runs the scenario to its end and returns a `RunResult` (summary, signals as NumPy
@@ -207,7 +206,7 @@ fn toml_value(key: &str, value: &Bound<'_, PyAny>) -> PyResult<toml::Value> {
             .name()
             .map(|n| n.to_string())
             .unwrap_or_default();
-        crate::ScenarioError::new_err(format!(
+        ScenarioError::new_err(format!(
             "{key}: a {kind} cannot be a scenario value; give a bool, int, float, str, or a list \
              or dict of them"
         ))

@@ -2,13 +2,13 @@
 //! at a time (`twin::Simulator` behind a lock, so the object may cross Python threads).
 
 use crate::controller::efforts_from;
+use crate::errors::StepError as PyStepError;
 use crate::errors::{diverged, from_twin};
-use crate::scenario::Scenario;
 use numpy::PyArray1;
 use pyo3::prelude::*;
 use std::sync::{Mutex, MutexGuard};
 use std::time::Instant;
-use twin::StepError;
+use twin::{LoadedScenario, StepError};
 
 /// The scenario's plant without its controller: `step(efforts)` holds the efforts (one per
 /// actuator in its command unit, `effort_units`: N, N·m, or A where a drive takes a current;
@@ -20,8 +20,9 @@ pub struct Simulator {
 }
 
 impl Simulator {
-    pub fn from_scenario(scenario: &Scenario) -> PyResult<Self> {
-        let simulator = twin::Simulator::new(scenario.load()?).map_err(from_twin)?;
+    /// The plant of a loaded scenario, its controller left out.
+    pub fn from_loaded(loaded: LoadedScenario) -> PyResult<Self> {
+        let simulator = twin::Simulator::new(loaded).map_err(from_twin)?;
         Ok(Self {
             inner: Mutex::new(simulator),
         })
@@ -69,13 +70,13 @@ impl Simulator {
         py: Python<'py>,
         efforts: &Bound<'py, PyAny>,
     ) -> PyResult<Bound<'py, PyArray1<f64>>> {
-        let efforts = efforts_from(efforts)
-            .map_err(|e| crate::StepError::new_err(e.value(py).to_string()))?;
+        let efforts =
+            efforts_from(efforts).map_err(|e| PyStepError::new_err(e.value(py).to_string()))?;
         let mut sim = self.lock();
         match sim.step(&efforts) {
             Ok(measured) => Ok(PyArray1::from_slice(py, measured)),
             Err(StepError::Diverged(failure)) => Err(diverged(py, &failure)),
-            Err(error) => Err(crate::StepError::new_err(error.to_string())),
+            Err(error) => Err(PyStepError::new_err(error.to_string())),
         }
     }
 
@@ -181,8 +182,8 @@ impl Simulator {
 }
 
 /// Seconds for `steps` zero-effort steps of the scenario's plant, from Rust.
-pub fn engine_step_seconds(scenario: &Scenario, steps: usize) -> PyResult<f64> {
-    let mut sim = twin::Simulator::new(scenario.load()?).map_err(from_twin)?;
+pub fn engine_step_seconds(loaded: LoadedScenario, steps: usize) -> PyResult<f64> {
+    let mut sim = twin::Simulator::new(loaded).map_err(from_twin)?;
     let efforts = vec![0.0; sim.actuators().len()];
     let started = Instant::now();
     for _ in 0..steps {

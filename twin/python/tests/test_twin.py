@@ -23,7 +23,8 @@ def twin_cli():
     path = os.environ.get("TWIN")
     if not path:
         pytest.fail("set TWIN to the twin command line, e.g. target/release/twin (scripts/test does)")
-    return path
+    # Absolute, since tests run it from their own temporary folders.
+    return str(Path(path).resolve())
 
 
 def test_lists_the_scenarios_and_controllers():

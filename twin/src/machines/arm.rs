@@ -18,9 +18,9 @@
 //! couple on the hand (the stator's reaction). Its current is measured like the others.
 //!
 //! **Process.** Every step the tool point (the cutter link's origin) is projected on the contour
-//! ([`models::arm_path::ContourPath`]); the radial depth of cut is the stock's depth there plus
+//! ([`models::arm::path::ContourPath`]); the radial depth of cut is the stock's depth there plus
 //! how far the tool has strayed into the stock, the path speed the tool's velocity along the
-//! contour, and [`models::arm_milling::Cutter::load`] gives the tooth-period mean force on the
+//! contour, and [`models::arm::milling::Cutter::load`] gives the tooth-period mean force on the
 //! tool (applied at the spindle axis; the multibody carries its reaction to the joints as
 //! `Jᵀ(q)·F`, Ilyukhin eq (1)) and the torque resisting the spindle (a couple on the cutter). With
 //! the stock on the right of travel a counter-clockwise spindle mills up, a clockwise one down.
@@ -69,10 +69,10 @@ use super::{joint, link, process_params, Machine, MachineError};
 use crate::mechanism::Mechanism;
 use crate::physics::{Load, MechanismState, NO_DAMPING, NO_STIFFNESS};
 use crate::scene::{colors, Bounds, Drawing, Marker, MarkerSource, Scene};
-use controllers::{Actuator, SignalSpec, Unit};
 use figures::{Figures, Sample};
-use models::arm_milling::{CutLoad, Cutter, CutterParams, MillingMode, Stock};
-use models::arm_path::{Contour, ContourPath, Projection};
+use framework::{Actuator, SignalSpec, Unit};
+use models::arm::milling::{CutLoad, Cutter, CutterParams, MillingMode, Stock};
+use models::arm::path::{Contour, ContourPath, Projection};
 use models::drive::{Drive, DriveParams};
 use serde::Deserialize;
 use spindle::{Spindle, SpindleParams};

@@ -2,7 +2,7 @@
 //! twisting sliding mode control schemes comparison for high-precision CNC machining"; their
 //! equations restart in each section, cited here as II.(n)): a table on one prismatic joint
 //! `table`, `m ẍ + b ẋ = F` (II.(1)) with m and b in the URDF, driven through the chain of their
-//! Fig. 1, and loaded by the micro-milling cut of [`models::micromilling`] (II.(2)–(4)).
+//! Fig. 1, and loaded by the micro-milling cut of [`models::feed_axis::micromilling`] (II.(2)–(4)).
 //!
 //! **Drive.** The controller's force command F* (N) is the amplifier's input through the voltage
 //! `u_c = F*/(k_t·K_a)`; the current amplifier gives `i = k_t·u_c`, limited to ±`current_limit`, and
@@ -26,8 +26,8 @@ use super::{default_joint_signals, joint, process_params, Machine, MachineError}
 use crate::mechanism::{Joint, JointMotion, Mechanism, Pose2};
 use crate::physics::{Load, MechanismState, NO_DAMPING, NO_STIFFNESS};
 use crate::scene::{colors, Bounds, Drawing, Marker, MarkerSource, Scene};
-use controllers::{SignalSpec, Unit};
-use models::micromilling::{MicroMillingCut, MicroMillingParams};
+use framework::{SignalSpec, Unit};
+use models::feed_axis::micromilling::{MicroMillingCut, MicroMillingParams};
 use serde::Deserialize;
 
 const MACHINE: &str = "feed_axis";

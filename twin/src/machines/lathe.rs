@@ -20,7 +20,7 @@ use super::{joint, process_params, Machine, MachineError};
 use crate::mechanism::{JointMotion, Mechanism};
 use crate::physics::{Load, MechanismState, NO_DAMPING, NO_STIFFNESS};
 use crate::scene::{colors, Bounds, Drawing, Marker, MarkerSource, Scene};
-use controllers::{SignalSpec, Unit};
+use framework::{SignalSpec, Unit};
 use models::lathe::{Lathe, LatheParams, TOOLS};
 use serde::Deserialize;
 use std::f64::consts::TAU;

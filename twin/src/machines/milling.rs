@@ -1,7 +1,7 @@
 //! High-speed milling with a slender ball-end tool, after Kaliński & Galewski 2013, §3 (cited
 //! as K(n)): the tool's first bending mode in the machine's plane (the tip on the prismatic joints
 //! `tool_x` and `tool_y`, springs and dampers from the URDF) under the regenerative cut of
-//! [`models::milling`], eqs K(11)–K(13), and the spindle (revolute `spindle`, driven by torque)
+//! [`models::milling`], Kaliński eqs (11)–(13), and the spindle (revolute `spindle`, driven by torque)
 //! whose instantaneous angle sets which flutes cut and the regenerative delay. The workpiece feeds
 //! at `v_f` along x.
 //!
@@ -18,9 +18,9 @@ use super::{
 use crate::mechanism::{Joint, JointMotion, Mechanism};
 use crate::physics::{Load, MechanismState, NO_DAMPING, NO_STIFFNESS};
 use crate::scene::{colors, Bounds, Drawing, Marker, MarkerSource, Scene};
-use controllers::{SignalSpec, Unit};
+use framework::{SignalSpec, Unit};
+use models::milling::stability::{CutGeometry, ToolModes};
 use models::milling::{CutForces, MillingCut, MillingCutParams, MAX_FLUTES};
-use models::milling_stability::{CutGeometry, ToolModes};
 use serde::Deserialize;
 
 const MACHINE: &str = "milling";

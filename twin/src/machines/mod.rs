@@ -11,7 +11,7 @@ mod whitworth;
 use crate::mechanism::{Joint, JointMotion, Mechanism};
 use crate::physics::{Load, MechanismState};
 use crate::scene::Scene;
-use controllers::{Actuator, EffortKind, SignalSpec, Unit};
+use framework::{Actuator, EffortKind, SignalSpec, Unit};
 use thiserror::Error;
 
 #[derive(Debug, Error, Clone, PartialEq)]
@@ -139,12 +139,12 @@ pub struct Excitation {
     pub vibration_signal: String,
 }
 
-/// The regenerative cut's stability problem ([`models::milling_stability`]) and where the
+/// The regenerative cut's stability problem ([`models::milling::stability`]) and where the
 /// machine cuts in it.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Stability {
-    pub tool: models::milling_stability::ToolModes,
-    pub cut: models::milling_stability::CutGeometry,
+    pub tool: models::milling::stability::ToolModes,
+    pub cut: models::milling::stability::CutGeometry,
     /// The run's axial depth of cut, m.
     pub axial_depth: f64,
     /// Speeds drawn when the scenario gives the spindle no initial speed, rad/s.
@@ -230,7 +230,7 @@ fn process_params<P: serde::de::DeserializeOwned>(
     machine: &str,
     process: &toml::Table,
 ) -> Result<P, MachineError> {
-    controllers::registry::from_table(process).map_err(|reason| MachineError::BadParameters {
+    framework::from_table(process).map_err(|reason| MachineError::BadParameters {
         machine: machine.into(),
         reason,
     })

@@ -4,7 +4,7 @@
 //! Per physics step the machine
 //! - drives each driven wheel through its DC gear motor ([`motor`]),
 //! - integrates every wheel's spin (implicit in the tyre force, which is stiff at low speed),
-//! - applies the tyre forces of `models::tyre` at the contacts as loads on the wheels' links,
+//! - applies the tyre forces of `models::platform::tyre` at the contacts as loads on the wheels' links,
 //!   with the static normal loads from the centre of mass and the contacts (`floor_gravity`).
 //!
 //! The controller measures the wheel encoders (`<wheel>.position`), the motor currents
@@ -23,10 +23,10 @@ use super::{link, process_params, Machine, MachineError};
 use crate::mechanism::{wrap_angle, Mechanism, Pose2};
 use crate::physics::{Load, MechanismState, NO_DAMPING, NO_STIFFNESS};
 use crate::scene::{colors, Bounds, Drawing, Marker, MarkerSource, Scene};
-use controllers::{Actuator, EffortKind};
-use controllers::{SignalSpec, Unit};
-use models::platform_path::{Path, PathSpec};
-use models::tyre::{static_normal_loads, TyreParams};
+use framework::{Actuator, EffortKind};
+use framework::{SignalSpec, Unit};
+use models::platform::path::{Path, PathSpec};
+use models::platform::tyre::{static_normal_loads, TyreParams};
 use motor::{Motor, MotorParams};
 use serde::Deserialize;
 

@@ -8,8 +8,8 @@ use super::{joint, link, process_params, Machine, MachineError};
 use crate::mechanism::Mechanism;
 use crate::physics::{Load, MechanismState, NO_DAMPING, NO_STIFFNESS};
 use crate::scene::{colors, Bounds, Drawing, Marker, MarkerSource, Scene};
-use controllers::{SignalSpec, Unit};
 use cutting::{Cutting, Workpiece};
+use framework::{SignalSpec, Unit};
 use models::whitworth::Geometry;
 use serde::Deserialize;
 

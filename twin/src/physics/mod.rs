@@ -16,17 +16,21 @@ mod dense;
 mod dynamics;
 mod exact;
 mod linearize;
+mod options;
 mod rapier_engine;
 mod rapier_model;
 mod shapes;
 
 use crate::mechanism::{Inertial, JointMotion, Mechanism, Pose2};
-use crate::scenario::{AllowedContact, BodySpec, ContactOptions, Engine, SolverOptions};
 use exact::{ExactEngine, ExactSettings};
 use rapier_engine::RapierEngine;
 
 pub use contacts::{length, BodyShapes, Collision, ContactDetector};
 pub use linearize::{ReducedDynamics, ReducedError};
+pub use options::{
+    AllowedContact, BodyKind, BodyShape, BodySpec, ContactOptions, Engine, SolverOptions,
+    MAX_SUBSTEPS,
+};
 
 /// Joint coordinates and link motion after a step, in the URDF's conventions.
 #[derive(Debug, Clone, Default, PartialEq)]

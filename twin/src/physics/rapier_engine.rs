@@ -38,8 +38,8 @@ use super::exact::{ExactEngine, ExactSettings};
 use super::rapier_model::{axis_frame, insert_links, insert_tree, locked_axes, mass_properties};
 use super::shapes::{from_parry, parry_shape, to_parry};
 use super::{loop_gaps, Load, MechanismState, SolverSettings, NO_DAMPING, NO_STIFFNESS};
+use super::{BodyKind, BodySpec, ContactOptions};
 use crate::mechanism::{Inertial, JointMotion, Mechanism, Pose2, Shape};
-use crate::scenario::{BodyKind, BodySpec, ContactOptions};
 use rapier2d_f64::prelude::*;
 
 /// Rapier's world: its sets and pipeline, and the contact filter its narrow phase asks.

@@ -4,7 +4,7 @@
 
 use super::exact::{ExactEngine, ExactSettings};
 use super::*;
-use crate::scenario::{BodyKind, BodyShape, BodySpec};
+use super::{BodyKind, BodyShape, BodySpec};
 use crate::urdf;
 
 fn whitworth() -> Mechanism {

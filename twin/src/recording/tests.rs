@@ -83,7 +83,7 @@ fn layout(links: usize, groups: &[(&str, usize)]) -> RecordingLayout {
                     PlotSpec {
                         tab: PlotTab::Process,
                         name: path.to_owned(),
-                        unit: controllers::Unit::Dimensionless,
+                        unit: framework::Unit::Dimensionless,
                         series,
                     }
                 })

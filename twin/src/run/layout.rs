@@ -3,7 +3,7 @@
 
 use crate::mechanism::Mechanism;
 use crate::physics::MechanismState;
-use controllers::{SignalSpec, Unit};
+use framework::{SignalSpec, Unit};
 use std::ops::Range;
 
 /// The names of everything a run carries per step, fixed before the first step. Every slice in
@@ -100,10 +100,10 @@ impl SignalLayout {
                 .iter()
                 .map(|&j| mechanism.joints[j].name.clone())
                 .collect(),
-            signals: controllers::signal::names(&signal_specs),
+            signals: framework::signal_names(&signal_specs),
             actuators: parts.actuators,
             internals: Vec::new(),
-            diagnostics: controllers::signal::names(&diagnostic_specs),
+            diagnostics: framework::signal_names(&diagnostic_specs),
             specs: LayoutSpecs {
                 joints: parts.joint_specs,
                 signals: signal_specs,
@@ -122,7 +122,7 @@ impl SignalLayout {
 
     /// Sets the controller's internals (known once it is bound).
     pub(super) fn set_internals(&mut self, specs: Vec<SignalSpec>) {
-        self.internals = controllers::signal::names(&specs);
+        self.internals = framework::signal_names(&specs);
         self.specs.internals = specs;
     }
 

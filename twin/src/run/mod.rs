@@ -25,14 +25,15 @@ pub use summary::{
 use crate::faults::FaultSet;
 use crate::machines::{self, Machine, MachineError};
 use crate::mechanism::{Joint, JointMotion, Mechanism};
+use crate::physics::{BodyKind, BodySpec, Engine};
 use crate::physics::{BodyShapes, ContactDetector, MechanismState};
 use crate::recording::{LiveViewer, RecordingError};
-use crate::scenario::{BodyKind, BodySpec, Engine, LoadedScenario, Scenario, ScenarioError};
+use crate::scenario::{LoadedScenario, Scenario, ScenarioError};
 use crate::scene::{Bounds, Scene};
 use crate::sensors::Sensor;
 use crate::urdf::{self, UrdfError};
-use controllers::{Actuator, Controller, ControllerError, EffortKind, PlantInterface};
 use evaluate::Evaluator;
+use framework::{Actuator, Controller, ControllerError, EffortKind, PlantInterface};
 use layout::LayoutParts;
 use record::{RecordingObserver, RecordingParts};
 use session::Session;

@@ -4,7 +4,7 @@
 use super::layout::SignalLayout;
 use crate::mechanism::Pose2;
 use crate::physics::{Collision, MechanismState};
-use controllers::Event;
+use framework::Event;
 
 /// What an observer may fail with; the run stops and returns it.
 pub type ObserverError = Box<dyn std::error::Error + Send + Sync>;

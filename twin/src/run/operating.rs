@@ -9,7 +9,7 @@ use crate::linear::{self, Channel, Description, LinearModel, ModelError, Plant};
 use crate::machines::{self, Machine};
 use crate::mechanism::JointMotion;
 use crate::physics::{Load, MechanismState, ReducedDynamics};
-use controllers::EffortKind;
+use framework::EffortKind;
 use thiserror::Error;
 
 /// A machine signal counts as the same value to this share (of max(|value|, 1)).

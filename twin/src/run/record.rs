@@ -2,7 +2,7 @@
 //! to the `.rrd` file, every event as it happens, the run's start and end as events and its
 //! summary as a text document.
 //!
-//! What is plotted with what follows the signals' specs ([`controllers::SignalSpec`]): every
+//! What is plotted with what follows the signals' specs ([`framework::SignalSpec`]): every
 //! value naming the same plot in the same unit is drawn on it, whatever produced it, so that a
 //! reference or a command meets what it commands.
 
@@ -16,7 +16,7 @@ use crate::recording::{
     LiveViewer, PlotSpec, PlotTab, Recorder, RecordingLayout, SeriesRole, SeriesSpec,
 };
 use crate::scene::Scene;
-use controllers::{EventLevel, SignalSpec, Unit};
+use framework::{EventLevel, SignalSpec, Unit};
 use std::path::PathBuf;
 
 /// Records a run to a file (and a live viewer, if any).

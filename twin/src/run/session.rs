@@ -8,7 +8,7 @@ use crate::faults::PlantChange;
 use crate::mechanism::Pose2;
 use crate::physics::{Load, MechanismState, Physics, SolverSettings};
 use crate::sensors::Noise;
-use controllers::{Event, EventKind, Measurement};
+use framework::{Event, EventKind, Measurement};
 use std::ops::DerefMut;
 
 /// How a run ended.

@@ -7,7 +7,7 @@
 use super::session::Session;
 use super::{effort_kind, Divergence, Twin, TwinError};
 use crate::scenario::{LoadedScenario, Scenario};
-use controllers::{
+use framework::{
     Actuator, Controller, ControllerError, EffortKind, Measurement, PlantInterface, Registry,
     SignalSpec,
 };

@@ -19,8 +19,8 @@ use crate::machines::{Excitation, Stability};
 use crate::recording::{Plot2D, PlotAxis, PlotGeometry, PlotLayer};
 use crate::scenario::{MetricKind, MetricSpec};
 use crate::spectrum::Spectrum;
-use controllers::Unit;
-use models::milling_stability::{lobe_diagram, LobePoint, SemiDiscretization, StabilityError};
+use framework::Unit;
+use models::milling::stability::{lobe_diagram, LobePoint, SemiDiscretization, StabilityError};
 use std::f64::consts::TAU;
 use std::thread::JoinHandle;
 

@@ -4,8 +4,8 @@
 use super::builtin::find_urdf;
 use super::{LoadedScenario, MetricSpec, Scenario, ScenarioError};
 use crate::files::read_text;
-use controllers::registry::{describe_toml_error, from_table, shortened};
-use controllers::{parameter_message, ControllerError, Registry};
+use framework::{describe_toml_error, from_table, shortened};
+use framework::{parameter_message, ControllerError, Registry};
 use std::path::{Path, PathBuf};
 
 /// Largest key set (`set`, `--set`): characters and dotted segments (no scenario key is deeper

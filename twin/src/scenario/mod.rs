@@ -8,22 +8,19 @@
 mod builder;
 mod builtin;
 mod checks;
-mod contact;
 mod metrics;
 #[cfg(test)]
 mod tests;
 
 pub use builder::{load, Overrides, ScenarioBuilder, ScenarioValue};
 pub use builtin::BUILTIN;
-pub use contact::{
-    AllowedContact, BodyKind, BodyShape, BodySpec, ContactOptions, Engine, SolverOptions,
-};
 pub use metrics::{MetricKind, MetricSpec};
 
 use crate::faults::FaultSpec;
+use crate::physics::{AllowedContact, BodySpec, ContactOptions, SolverOptions};
 use crate::plant::PlantValues;
 use crate::sensors::SensorSpec;
-use controllers::Controller;
+use framework::Controller;
 use models::reference::Reference;
 use serde::Deserialize;
 use std::collections::BTreeMap;
@@ -43,8 +40,6 @@ pub enum ScenarioError {
     BadKey { key: String, reason: String },
 }
 
-/// Largest RK4 substep count per physics step.
-pub const MAX_SUBSTEPS: usize = 64;
 /// Default cap on physics steps per run (`max_steps`): about a minute of the fastest machine,
 /// and a recording of a few GB at `recording.every = 1`.
 pub const DEFAULT_MAX_STEPS: usize = 10_000_000;

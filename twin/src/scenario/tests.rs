@@ -1,14 +1,13 @@
 //! The scenario's parsing, checks and builder, against the built-in scenarios.
 
 use super::*;
-use controllers::Registry;
 
 fn load(name: &str, overrides: &Overrides) -> Result<LoadedScenario, ScenarioError> {
-    super::load(name, overrides, &Registry::builtin())
+    super::load(name, overrides, &controllers::builtin())
 }
 
 fn build(builder: ScenarioBuilder) -> Result<LoadedScenario, ScenarioError> {
-    builder.build(&Registry::builtin())
+    builder.build(&controllers::builtin())
 }
 
 #[test]
@@ -209,7 +208,7 @@ fn builder_and_assignments_give_the_same_scenario() {
 #[test]
 fn wrong_types_fail_at_build_naming_the_key() {
     let fast = builder().set("dt", "fast").unwrap();
-    let err = fast.build(&Registry::builtin()).unwrap_err().to_string();
+    let err = fast.build(&controllers::builtin()).unwrap_err().to_string();
     assert!(err.contains("`dt`"), "{err}");
     let err = builder()
         .set("sensors.\"crank.position\".noise", true)
@@ -228,7 +227,7 @@ fn metrics_are_replaced_by_name_or_added() {
             ..MetricSpec::new("tracking_mse", MetricKind::Mse, "ram_position")
         })
         .metric(&MetricSpec::new("peak", MetricKind::MaxAbs, "ram_velocity"))
-        .build(&Registry::builtin())
+        .build(&controllers::builtin())
         .unwrap();
     let metrics = &loaded.scenario.metrics;
     assert_eq!(metrics.len(), 2);
@@ -247,7 +246,7 @@ fn metrics_are_replaced_by_name_or_added() {
             scale: f64::NAN,
             ..MetricSpec::new("peak", MetricKind::MaxAbs, "ram_velocity")
         })
-        .build(&Registry::builtin())
+        .build(&controllers::builtin())
         .unwrap_err();
     assert!(bad.to_string().contains("`metrics.1.scale`"), "{bad}");
 }

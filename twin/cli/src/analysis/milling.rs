@@ -1,5 +1,5 @@
 //! `twin analyze milling [scenario]`: the stability lobe diagram of a milling scenario's tool and
-//! cut by semi-discretization ([`models::milling_stability`]), checked against the twin's own
+//! cut by semi-discretization ([`models::milling::stability`]), checked against the twin's own
 //! time-domain runs of the same scenario.
 //!
 //! **Inputs** come from the scenario (built-in name or file, `--set` applied): the tool's two
@@ -17,11 +17,11 @@
 use super::{create_dir, write_text, AnalysisError};
 use crate::frf::file::read_csv;
 use crate::frf::fit::{fit_mode, ModalFit};
-use controllers::Registry;
-use models::milling::MillingCutParams;
-use models::milling_stability::{
+use framework::Registry;
+use models::milling::stability::{
     limiting_depth, lobe_diagram, CutGeometry, LobePoint, SemiDiscretization, ToolModes,
 };
+use models::milling::MillingCutParams;
 use rayon::prelude::*;
 use std::f64::consts::TAU;
 use std::fmt::Write as _;

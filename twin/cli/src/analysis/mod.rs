@@ -125,7 +125,7 @@ pub struct AnalyzeArgs {
 }
 
 /// Runs `twin analyze`: the analysis, its files, and a summary for the terminal.
-pub fn run(args: &AnalyzeArgs, registry: &controllers::Registry) -> Result<String, AnalysisError> {
+pub fn run(args: &AnalyzeArgs, registry: &framework::Registry) -> Result<String, AnalysisError> {
     if args.machine == "milling" {
         return run_milling(args, registry);
     }
@@ -165,7 +165,7 @@ pub fn run(args: &AnalyzeArgs, registry: &controllers::Registry) -> Result<Strin
 /// `twin analyze milling`: lobes, the time-domain check and their files.
 fn run_milling(
     args: &AnalyzeArgs,
-    registry: &controllers::Registry,
+    registry: &framework::Registry,
 ) -> Result<String, AnalysisError> {
     let argument = |flag: &'static str, reason: String| AnalysisError::Argument { flag, reason };
     let rpm = |v: f64| v * std::f64::consts::TAU / 60.0;

@@ -107,7 +107,7 @@ pub struct FrfResult {
 }
 
 /// Runs `twin frf`: the measurement, its files and a summary for the terminal.
-pub fn run(args: &FrfArgs, registry: &controllers::Registry) -> Result<String, FrfError> {
+pub fn run(args: &FrfArgs, registry: &framework::Registry) -> Result<String, FrfError> {
     let result = measure(args, registry)?;
     let files = write(&result, &args.out_dir)?;
     let mut out = summary(&result);
@@ -244,7 +244,7 @@ impl Observer for Sampler {
 }
 
 /// Runs the scenario under the excitation and estimates the response.
-pub fn measure(args: &FrfArgs, registry: &controllers::Registry) -> Result<FrfResult, FrfError> {
+pub fn measure(args: &FrfArgs, registry: &framework::Registry) -> Result<FrfResult, FrfError> {
     let plan = plan(args)?;
     let duration = plan.samples as f64 * plan.period;
     let loaded = load(args, registry, duration)?;
@@ -314,7 +314,7 @@ pub fn measure(args: &FrfArgs, registry: &controllers::Registry) -> Result<FrfRe
 /// The scenario with the command's `--set` values, over `duration`.
 fn load(
     args: &FrfArgs,
-    registry: &controllers::Registry,
+    registry: &framework::Registry,
     duration: f64,
 ) -> Result<twin::LoadedScenario, FrfError> {
     let mut scenario = twin::Scenario::open(&args.scenario).map_err(|e| argument("scenario", e))?;
@@ -334,7 +334,7 @@ fn load(
 /// close the loop the model leaves open), the input an actuator and the output a state signal.
 fn linear_response(
     args: &FrfArgs,
-    registry: &controllers::Registry,
+    registry: &framework::Registry,
     duration: f64,
     lines: &[FrfLine],
 ) -> Result<Vec<Complex>, String> {

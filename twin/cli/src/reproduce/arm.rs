@@ -10,7 +10,7 @@
 
 use super::{Claim, Report, ReproduceError, Verdict};
 use controllers::filters::FirstOrderFilter;
-use controllers::Registry;
+use framework::Registry;
 use serde_json::json;
 use std::path::Path;
 use twin::{Engine, ScenarioBuilder};

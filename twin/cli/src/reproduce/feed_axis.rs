@@ -26,7 +26,7 @@
 //! SMC rows say 3 too; its P-PI rows, 1.9 and 1.7 µm/s, cannot come from that start).
 
 use super::{Claim, Report, ReproduceError, Verdict};
-use controllers::Registry;
+use framework::Registry;
 use std::path::Path;
 use twin::summary;
 use twin::{RunSummary, Twin, TwinError};

@@ -9,7 +9,7 @@
 
 use super::{Claim, Report, ReproduceError, Verdict};
 use crate::analysis::lathe::{analyze, Gains, PhasePlane, PhasePlaneRequest};
-use controllers::Registry;
+use framework::Registry;
 use models::lathe::{EquilibriumKind, Lathe, TOOLS};
 use std::f64::consts::TAU;
 use std::path::Path;

@@ -15,7 +15,7 @@
 //!   well (varying the speed does more than moving to the programme's top speed).
 
 use super::{Claim, Report, ReproduceError, Verdict};
-use controllers::Registry;
+use framework::Registry;
 use std::path::Path;
 use twin::summary;
 use twin::{RunSummary, Twin, TwinError};

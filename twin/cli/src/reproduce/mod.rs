@@ -10,10 +10,11 @@ mod milling;
 mod platform;
 mod whitworth;
 
-use controllers::Registry;
+use crate::engine_option::parse_engine;
+use framework::Registry;
 use serde::Serialize;
 use std::fmt::Write as _;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use twin::{Engine, Scenario, ScenarioBuilder, ScenarioError, TwinError};
 
 /// Whether the twin bears a claim out.
@@ -126,6 +127,30 @@ fn builtin(name: &str, engine: Option<Engine>) -> Result<ScenarioBuilder, Scenar
         Some(engine) => builder.set("solver.engine", engine.name()),
         None => Ok(builder),
     }
+}
+
+/// `twin reproduce` arguments.
+#[derive(Debug, Clone, clap::Args)]
+pub struct ReproduceArgs {
+    /// The paper (see `twin list`).
+    pub paper: String,
+    /// Folder for the recordings and report.json.
+    #[arg(long, default_value = "reproduce")]
+    pub out_dir: PathBuf,
+    /// The engine of every run (as `twin run --engine`); default: each scenario's own.
+    #[arg(long, value_name = "exact|rapier", value_parser = parse_engine)]
+    pub engine: Option<Engine>,
+}
+
+/// Runs `twin reproduce`: the paper's runs and report, and for the terminal its claims as a
+/// table and where the files went.
+pub fn run(args: &ReproduceArgs, registry: &Registry) -> Result<String, ReproduceError> {
+    let report = reproduce(&args.paper, &args.out_dir, registry, args.engine)?;
+    let folder = args.out_dir.display();
+    Ok(format!(
+        "{}recordings and report.json: {folder}\n",
+        to_table(&report)
+    ))
 }
 
 /// Runs every scenario of `paper` (on `engine` when given), writing recordings and

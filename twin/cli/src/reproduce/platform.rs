@@ -15,7 +15,7 @@
 //!   energy-optimal's on both floors, *partly* when it is larger on both.
 
 use super::{Claim, Report, ReproduceError, Verdict};
-use controllers::Registry;
+use framework::Registry;
 use std::path::Path;
 use twin::summary;
 use twin::{RunSummary, Twin, TwinError};

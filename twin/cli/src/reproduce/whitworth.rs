@@ -8,7 +8,7 @@
 //! observing the crank torque at each mode switch (the "jerk" of the switching criterion).
 
 use super::{Claim, Report, ReproduceError, Verdict};
-use controllers::Registry;
+use framework::Registry;
 use serde_json::json;
 use std::path::Path;
 use twin::{load_scenario as load, Engine, Overrides};

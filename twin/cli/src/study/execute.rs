@@ -3,7 +3,7 @@
 
 use super::results::{self, RunRecord, Spec};
 use super::{RunPlan, Study, StudyDefinition, StudyError};
-use controllers::Registry;
+use framework::Registry;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};

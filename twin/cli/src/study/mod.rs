@@ -20,7 +20,7 @@ pub use merge::{merge, Merged};
 pub use results::{report_table, Spec};
 
 use axis::{AxisText, GridAxis, RandomAxis};
-use controllers::Registry;
+use framework::Registry;
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 use thiserror::Error;

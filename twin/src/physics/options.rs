@@ -1,10 +1,13 @@
-//! What a scenario says about engines and contact: which engine steps the mechanism (`[solver]`),
+//! The physics' configuration, as a scenario gives it: which engine steps the mechanism (`[solver]`),
 //! the rigid bodies beside the machine (`[[bodies]]`: a clamp, a wall, a workpiece, a box), the
 //! pairs that touch by design (`[[allowed_contacts]]`), and how contacts are resolved
 //! (`[contact]`, rapier engine only).
 
 use crate::mechanism::{convex_hull, polygon_area, Outline, Pose2, Shape};
 use serde::Deserialize;
+
+/// Largest RK4 substep count per physics step.
+pub const MAX_SUBSTEPS: usize = 64;
 
 /// `[solver]`: the engine and its settings. The exact engine's RK4 substeps stay the scenario's
 /// top-level `substeps`.
@@ -253,10 +256,10 @@ impl SolverOptions {
             ),
         ];
         for (name, value, least) in counts {
-            if value < least || value > super::MAX_SUBSTEPS {
+            if value < least || value > MAX_SUBSTEPS {
                 return Err(format!(
                     "solver.{name} must be between {least} and {}, got {value}",
-                    super::MAX_SUBSTEPS
+                    MAX_SUBSTEPS
                 ));
             }
         }

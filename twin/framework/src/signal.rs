@@ -136,7 +136,7 @@ impl SignalSpec {
 }
 
 /// The names of `specs`, in order.
-pub fn names(specs: &[SignalSpec]) -> Vec<String> {
+pub fn signal_names(specs: &[SignalSpec]) -> Vec<String> {
     specs.iter().map(|s| s.name.clone()).collect()
 }
 

@@ -4,7 +4,7 @@
 //!
 //! # Cutting force
 //!
-//! The mechanistic form of Rubio, Ibeas & Luo (Rubio eqs (2)–(4)) (see [`crate::micromilling`] for the
+//! The mechanistic form of Rubio, Ibeas & Luo (Rubio eqs (2)–(4)) (see [`crate::feed_axis::micromilling`] for the
 //! micro-scale version with run-out), at machining-robot scale: per tooth `F_t = K_t·h·a`,
 //! `F_n = K_n·h·a` (Rubio eqs (2)–(3), straight flutes, `a` the axial depth — here the part's thickness
 //! across the arm's plane), projected with Rubio eq (4) on the feed direction x and its normal y,

@@ -11,6 +11,8 @@
 //! slotted link at a fixed distance, the classical layout, because the printed dimensions cannot
 //! close the loop over a full crank turn (see the README's model notes).
 
+pub mod dynamics;
+
 use serde::Deserialize;
 use std::f64::consts::{PI, TAU};
 use thiserror::Error;

@@ -1,12 +1,12 @@
 //! The regenerative cut of a slender milling tool, after Kaliński & Galewski ("Mechatronic
-//! surveillance…", 2013, §3; cited as K(n)): the force on each flute in the cut, eqs K(11)–K(13),
+//! surveillance…", 2013, §3): the force on each flute in the cut, Kaliński eqs (11)–(13),
 //! with the chip left by the flute before it at the same angle.
 //!
 //! **Geometry** (seen along the tool axis, x the feed direction): flute j sits at
 //! `φ_j = θ + 2πj/N`, θ the spindle angle, measured clockwise from +y (the sense the spindle
 //! turns). `n(φ) = (sin φ, cos φ)` points from the tool axis into the material, `t(φ) =
 //! (cos φ, −sin φ)` along the edge's motion. A flute cuts while `φ_j mod 2π` lies in
-//! `[entry_angle, exit_angle]` (`[0, π]` full immersion) and its chip is positive (K(11): the
+//! `[entry_angle, exit_angle]` (`[0, π]` full immersion) and its chip is positive (Kaliński eq (11): the
 //! force vanishes when the edge leaves the material).
 //!
 //! **Chip and regeneration.** In the workpiece's frame the edge of flute j is, along n, at
@@ -14,13 +14,15 @@
 //! is where the last flute to cut at that angle left it, `S`; the chip is `h_j = r_j − S`. The
 //! flute before j passed φ_j when the spindle was one pitch back, `θ(t') = θ(t) − 2π/N`: t' is
 //! found in the spindle's recorded angle, so the delay `τ = t − t'` follows the instantaneous
-//! speed (K(16)'s integral of 1/n over one pitch), not a fixed τ. With no vibration this is
-//! K(11)'s `h_D = f_z·sin φ` with `f_z = v_f·τ`; the paper's `Δh` is the deflection away from
+//! speed (Kaliński eq (16)'s integral of 1/n over one pitch), not a fixed τ. With no vibration this is
+//! Kaliński eq (11)'s `h_D = f_z·sin φ` with `f_z = v_f·τ`; the paper's `Δh` is the deflection away from
 //! the material, `Δh = −u·n`. A flute that leaves the material leaves the surface as it was, so
 //! the next one cuts what it skipped (multiple regeneration).
 //!
-//! **Forces** (K(11)–K(13)): tangential `F_t = k_d·a_p·h`, radial `F_r = μ·F_t`, along the tool
+//! **Forces** (Kaliński eqs (11)–(13)): tangential `F_t = k_d·a_p·h`, radial `F_r = μ·F_t`, along the tool
 //! axis none; on the tool `F = −F_t·t − F_r·n`, and about the spindle axis the drag `F_t·R`.
+
+pub mod stability;
 
 use serde::{Deserialize, Serialize};
 use std::collections::VecDeque;
@@ -51,9 +53,9 @@ pub struct MillingCutParams {
     pub flutes: usize,
     /// Radius of the cutting edge at the contact point R, m.
     pub tool_radius: f64,
-    /// Average dynamic specific cutting pressure k_d, N/m² (K(11)).
+    /// Average dynamic specific cutting pressure k_d, N/m² (Kaliński eq (11)).
     pub cutting_pressure: f64,
-    /// Cutting force ratio μ = F_r/F_t (K(12)).
+    /// Cutting force ratio μ = F_r/F_t (Kaliński eq (12)).
     pub force_ratio: f64,
     /// Axial depth of cut a_p, m.
     pub axial_depth: f64,

@@ -1,0 +1,99 @@
+//! `twin run`: one scenario run headless into an .rrd recording, with its summary.
+
+use crate::engine_option::parse_engine;
+use crate::failure::{Failure, EXIT_DIVERGED};
+use crate::reproduce::engine_override;
+use crate::signals::stop_on_signals;
+use framework::Registry;
+use std::path::PathBuf;
+use std::process::ExitCode;
+use twin::{same_file, summary, Engine, LiveViewer, OutputFile, Overrides, Scenario, Twin};
+
+/// `twin run` arguments.
+#[derive(Debug, Clone, clap::Args)]
+pub struct RunArgs {
+    /// A built-in scenario name or a scenario .toml file.
+    pub scenario: String,
+    /// Use this controller instead of the scenario's (its parameters start from defaults).
+    #[arg(long)]
+    pub controller: Option<String>,
+    /// Override a scenario value: a dotted key into the TOML, e.g. controller.params.crank_speed=-3.
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    pub set: Vec<String>,
+    /// The engine that steps the mechanism: exact (RK4, loops closed to 1e-12 m) or rapier
+    /// (Rapier's pipeline, with contacts); the same as --set solver.engine=…, given before the
+    /// --set values.
+    #[arg(long, value_name = "exact|rapier", value_parser = parse_engine)]
+    pub engine: Option<Engine>,
+    /// Simulated time, s.
+    #[arg(long, allow_hyphen_values = true)]
+    pub duration: Option<f64>,
+    /// Recording to write (default: <scenario>.rrd in the current folder).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Also write the summary as JSON to this file.
+    #[arg(long)]
+    pub summary: Option<PathBuf>,
+    /// Also stream the run to a Rerun viewer listening at this URL
+    /// (e.g. rerun+http://127.0.0.1:9876/proxy).
+    #[arg(long, conflicts_with = "spawn")]
+    pub connect: Option<String>,
+    /// Also stream the run to a Rerun viewer started from the `rerun` executable on PATH.
+    #[arg(long)]
+    pub spawn: bool,
+}
+
+/// Runs `twin run`: the recording, the summary table on stdout (and as JSON when asked), and
+/// the exit code of a diverged or interrupted run.
+pub fn run(args: &RunArgs, registry: &Registry) -> Result<ExitCode, Failure> {
+    let overrides = Overrides {
+        controller: args.controller.clone(),
+        duration: args.duration,
+        set: [engine_override(args.engine), args.set.clone()].concat(),
+    };
+    let loaded = Scenario::open(&args.scenario)?
+        .overrides(&overrides)?
+        .build(registry)?;
+    let out = args
+        .out
+        .clone()
+        .unwrap_or_else(|| PathBuf::from(format!("{}.rrd", loaded.scenario.name)));
+    if args.summary.as_deref().is_some_and(|s| same_file(s, &out)) {
+        return Err(Failure::usage(format!(
+            "--summary {} is the recording's path too; give them different files",
+            out.display()
+        )));
+    }
+    // Created now, so that an unwritable summary path fails before the run, not after it.
+    let summary_file = args
+        .summary
+        .as_deref()
+        .map(OutputFile::create)
+        .transpose()?;
+    let mut twin = Twin::new(loaded)?.with_stop_flag(stop_on_signals()?);
+    if let Some(url) = &args.connect {
+        twin = twin.with_live_viewer(LiveViewer::Connect(url.clone()));
+    } else if args.spawn {
+        twin = twin.with_live_viewer(LiveViewer::Spawn);
+    }
+    let result = twin.run(Some(&out))?;
+    print!("{}", summary::to_table(&result));
+    println!("recording: {}", out.display());
+    for warning in &result.warnings {
+        eprintln!("warning: {warning}");
+    }
+    if let Some(file) = summary_file {
+        summary::write_json(&result, file)?;
+    }
+    Ok(match (&result.failure, &result.interrupted) {
+        (Some(failure), _) => {
+            eprintln!("error: {failure}");
+            ExitCode::from(EXIT_DIVERGED)
+        }
+        (None, Some(interrupted)) => {
+            eprintln!("{interrupted}: recording and summary are complete up to there");
+            ExitCode::from(128 + interrupted.signal.min(127) as u8)
+        }
+        (None, None) => ExitCode::SUCCESS,
+    })
+}
