@@ -6,9 +6,9 @@
 //! continuous filter. Tustin maps a product of sections to the product of their discretisations,
 //! so cascading these filters discretises the cascaded transfer function.
 //!
-//! A filter primes itself on the first sample after construction or [`reset`](FirstOrderFilter::reset):
-//! its state is set to the steady state for that input (output `b₀·input`), so a signal that
-//! starts far from zero causes no start-up transient.
+//! A filter primes itself on the first sample after construction or
+//! [`reset`](FirstOrderFilter::reset): its state is set to the steady state for that input (output
+//! `b₀·input`), so a signal that starts far from zero causes no start-up transient.
 
 use framework::ControllerError;
 use thiserror::Error;
@@ -16,10 +16,22 @@ use thiserror::Error;
 /// A filter time constant that cannot be used.
 #[derive(Debug, Error, Clone, PartialEq)]
 pub enum FilterError {
+    /// A time constant (or bandwidth) that must be > 0 is zero, negative or not finite.
     #[error("filter {name} must be finite and > 0 (got {value})")]
-    NotPositive { name: &'static str, value: f64 },
+    NotPositive {
+        /// Which one, e.g. `time constant`, `bandwidth`.
+        name: &'static str,
+        /// The value given, s (rad/s for a bandwidth).
+        value: f64,
+    },
+    /// A time constant that may be zero (a lead-lag's `T_a`) is negative or not finite.
     #[error("filter {name} must be finite and ≥ 0 (got {value})")]
-    Negative { name: &'static str, value: f64 },
+    Negative {
+        /// Which one, e.g. `lead time constant`.
+        name: &'static str,
+        /// The value given, s.
+        value: f64,
+    },
 }
 
 impl FilterError {

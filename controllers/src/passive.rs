@@ -10,6 +10,7 @@ use serde::Deserialize;
 #[serde(deny_unknown_fields)]
 pub struct PassiveParams {}
 
+/// The running `passive` controller: leaves every effort at zero.
 pub struct Passive;
 
 pub(crate) fn entry() -> Entry {

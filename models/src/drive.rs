@@ -45,18 +45,33 @@ pub struct DriveParams {
     pub current_loop_period: f64,
 }
 
+/// Why a drive's data sheet is rejected.
 #[derive(Debug, Error, Clone, PartialEq)]
 pub enum DriveError {
+    /// A [`DriveParams`] field is zero, negative or not finite.
     #[error("drive: {name} must be finite and > 0 (got {value})")]
-    NotPositive { name: &'static str, value: f64 },
+    NotPositive {
+        /// The field's name.
+        name: &'static str,
+        /// The rejected value, in the field's SI unit.
+        value: f64,
+    },
+    /// The current-loop bandwidth reaches the Nyquist frequency π/T of the loop's sampling.
     #[error(
         "drive: the current loop's bandwidth ({bandwidth} rad/s) must be below the Nyquist \
          frequency of its sampling (π/{period} s)"
     )]
-    BandwidthTooHigh { bandwidth: f64, period: f64 },
+    BandwidthTooHigh {
+        /// Closed current-loop bandwidth ω_c, rad/s.
+        bandwidth: f64,
+        /// Current-loop sampling period T, s.
+        period: f64,
+    },
 }
 
 impl DriveParams {
+    /// Checks every field is positive and the current loop's bandwidth is below its Nyquist
+    /// frequency.
     pub fn validate(&self) -> Result<(), DriveError> {
         for (name, value) in [
             ("torque_constant", self.torque_constant),
@@ -107,6 +122,7 @@ pub struct Drive {
 }
 
 impl Drive {
+    /// Checks the data sheet; the drive starts with no current and an empty integrator.
     pub fn new(params: DriveParams) -> Result<Self, DriveError> {
         params.validate()?;
         Ok(Self {
@@ -118,6 +134,7 @@ impl Drive {
         })
     }
 
+    /// The data sheet the drive was built from.
     pub fn params(&self) -> &DriveParams {
         &self.params
     }

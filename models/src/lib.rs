@@ -3,8 +3,8 @@
 //!
 //! One module per machine, named as the machine is everywhere in the twin ([`whitworth`], [`arm`],
 //! [`platform`], [`feed_axis`], [`lathe`], [`milling`]), then the models they share: drives
-//! ([`drive`]), references ([`reference`], [`velocity_profile`]) and the independent serial-chain
-//! dynamics the engine is checked against ([`serial_chain`]).
+//! ([`drive`]), references ([`reference`](mod@reference), [`velocity_profile`]) and the
+//! independent serial-chain dynamics the engine is checked against ([`serial_chain`]).
 
 #![warn(missing_docs)]
 

@@ -8,14 +8,20 @@ use serde::Deserialize;
 #[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
 pub enum Reference {
     /// r = value.
-    Constant { value: f64 },
+    Constant {
+        /// The position held, m or rad.
+        value: f64,
+    },
     /// r = offset + amplitude·sin(angular_frequency·t + phase).
     Sine {
+        /// Centre of the oscillation, m or rad; 0 when omitted.
         #[serde(default)]
         offset: f64,
+        /// Peak deviation from the offset, m or rad.
         amplitude: f64,
         /// rad/s.
         angular_frequency: f64,
+        /// Phase at t = 0, rad; 0 when omitted.
         #[serde(default)]
         phase: f64,
     },
@@ -24,12 +30,16 @@ pub enum Reference {
 /// One sample of a reference.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct ReferenceSample {
+    /// r(t), m or rad.
     pub position: f64,
+    /// dr/dt, m/s or rad/s.
     pub rate: f64,
+    /// d²r/dt², m/s² or rad/s².
     pub acceleration: f64,
 }
 
 impl Reference {
+    /// The reference and its first two derivatives at `time`, s.
     pub fn sample(&self, time: f64) -> ReferenceSample {
         match *self {
             Reference::Constant { value } => ReferenceSample {

@@ -12,6 +12,7 @@
 pub struct ChainLink {
     /// The joint frame in the previous link's frame: x, y (m), angle (rad).
     pub origin: [f64; 3],
+    /// Link mass, kg.
     pub mass: f64,
     /// Centre of mass in the link frame, m.
     pub centre_of_mass: [f64; 2],
@@ -24,6 +25,7 @@ pub struct ChainLink {
 /// A planar serial chain under gravity.
 #[derive(Debug, Clone, PartialEq)]
 pub struct SerialChain {
+    /// The links from the base outwards; joint i carries link i.
     pub links: Vec<ChainLink>,
     /// m/s².
     pub gravity: [f64; 2],

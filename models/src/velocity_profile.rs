@@ -1,13 +1,13 @@
 //! Constant-cutting-velocity reference of the Whitworth paper (Perrusquía et al. 2022, §4,
-//! Algorithm 1, Perrusquía eqs (2)–(5)): a trapezoidal velocity profile with parabolic position blends over the
-//! cutting stroke, from the stroke end where cutting starts (`x_min`) to the one where it ends
-//! (`x_max`).
+//! Algorithm 1, Perrusquía eqs (2)–(5)): a trapezoidal velocity profile with parabolic position
+//! blends over the cutting stroke, from the stroke end where cutting starts (`x_min`) to the one
+//! where it ends (`x_max`).
 //!
 //! The stroke is covered in three phases:
 //! 1. blend, `0 ≤ t < t_a`: constant acceleration `v/t_a` from rest at `x_min`, reaching `v` at
 //!    `x_a` (Perrusquía eq (4): `x_a = x_min + (v/2t_a)·t_a²`);
-//! 2. cut, `t_a ≤ t < t_a + t_c`: constant velocity `v` from `x_a` to `x_b` (Perrusquía eq (5)), over the
-//!    workpiece length `L_d = |x_b − x_a|` in `t_c = L_d/|v|` (Perrusquía eq (2));
+//! 2. cut, `t_a ≤ t < t_a + t_c`: constant velocity `v` from `x_a` to `x_b` (Perrusquía eq (5)),
+//!    over the workpiece length `L_d = |x_b − x_a|` in `t_c = L_d/|v|` (Perrusquía eq (2));
 //! 3. blend, `t_d = t_a` long, decelerating back to rest.
 //!
 //! Consistency: each blend covers `|v|·t_a/2`, so the whole profile covers
@@ -44,25 +44,54 @@ pub struct ProfileParams {
 /// Why the profile parameters are rejected.
 #[derive(Debug, Clone, PartialEq, Error)]
 pub enum ProfileError {
+    /// A [`ProfileParams`] field is infinite or NaN.
     #[error("velocity profile parameter {name} is not finite ({value})")]
-    NonFinite { name: &'static str, value: f64 },
+    NonFinite {
+        /// The field's name.
+        name: &'static str,
+        /// The rejected value, m or m/s.
+        value: f64,
+    },
+    /// `x_min` equals `x_max`, so there is no stroke to cut.
     #[error("stroke ends coincide (x_min = x_max = {x}): no stroke to cut")]
-    ZeroStroke { x: f64 },
+    ZeroStroke {
+        /// The common stroke end, m.
+        x: f64,
+    },
+    /// The workpiece length `L_d` is zero or negative.
     #[error("workpiece length must be > 0, got {length} m")]
-    NonPositiveWorkpiece { length: f64 },
+    NonPositiveWorkpiece {
+        /// The rejected `L_d`, m.
+        length: f64,
+    },
+    /// The cutting velocity `v` is zero.
     #[error("cutting velocity must be non-zero")]
     ZeroVelocity,
+    /// The sign of `v` is not the direction from `x_min` to `x_max`.
     #[error("cutting velocity {velocity} m/s points against the stroke (x_min → x_max runs {direction})")]
     WrongDirection {
+        /// The rejected `v`, m/s.
         velocity: f64,
+        /// The stroke's direction in words: `upward (+)` or `downward (−)`.
         direction: &'static str,
     },
+    /// The workpiece is not shorter than the stroke, which leaves no room for the blends.
     #[error("workpiece ({workpiece} m) must be shorter than the stroke L_c = {stroke} m")]
-    WorkpieceTooLong { workpiece: f64, stroke: f64 },
+    WorkpieceTooLong {
+        /// Workpiece length `L_d`, m.
+        workpiece: f64,
+        /// Stroke length `L_c`, m.
+        stroke: f64,
+    },
+    /// The speed is so extreme that the blend time or its acceleration is not a usable number
+    /// (floating-point underflow or overflow).
     #[error("cutting speed {velocity} m/s leaves no usable blend (t_a = {t_a:e} s, blend acceleration {acceleration:e} m/s²)")]
     DegenerateBlend {
+        /// Cutting velocity `v`, m/s.
         velocity: f64,
+        /// Blend time `t_a` it gives, s.
         t_a: f64,
+        /// Blend acceleration `v/t_a` it gives, m/s².
         acceleration: f64,
     },
 }

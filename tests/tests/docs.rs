@@ -2,7 +2,7 @@
 //! `<Author> eq (N)`, and each machine's chapter of the guide holding the index from its paper's
 //! equations to the files and items that implement them.
 //!
-//! `TWIN_BLESS=1 cargo test -p tests --test docs` rewrites the generated indexes.
+//! `TWIN_BLESS=1 cargo test -p twin-tests --test docs` rewrites the generated indexes.
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -63,7 +63,11 @@ fn all_sources() -> Vec<PathBuf> {
 fn comment(line: &str, toml: bool) -> Option<&str> {
     let marker = if toml { "#" } else { "//" };
     let at = line.find(marker)?;
-    (line[..at].matches('"').count() % 2 == 0).then(|| &line[at..])
+    line[..at]
+        .matches('"')
+        .count()
+        .is_multiple_of(2)
+        .then(|| &line[at..])
 }
 
 /// The citations in a comment that do not have the one spelling: each `eq`/`eqs` word (any case)
@@ -84,13 +88,23 @@ fn misspelt(text: &str) -> Vec<String> {
         let word_end = at + if lower[at..].starts_with("eqs") { 3 } else { 2 };
         let after = &text[word_end..];
         let rest = after.trim_start_matches(['.', ' ']);
-        let cited = rest.starts_with(|c: char| c.is_ascii_digit())
+        // An appendix's equation (`B.4`) counts as a number too.
+        let appendix = rest.len() > 2
+            && rest.starts_with(|c: char| c.is_ascii_uppercase())
+            && rest[1..].starts_with('.');
+        let cited = appendix
+            || rest.starts_with(|c: char| c.is_ascii_digit())
             || rest.starts_with("K(")
             || (rest.starts_with('(') && rest[1..].starts_with(|c: char| c.is_ascii_digit()));
         if !cited {
             continue;
         }
-        let spelt = (&text[at..word_end] == "eq" || &text[at..word_end] == "eqs")
+        let word = &text[at..word_end];
+        // One equation is `eq`, a range of them `eqs`.
+        let range = after
+            .find(')')
+            .is_some_and(|close| after[close + 1..].starts_with("–("));
+        let spelt = (word == "eqs" || (word == "eq" && !range))
             && after.starts_with(" (")
             && AUTHORS.iter().any(|a| before.ends_with(&format!("{a} ")));
         if !spelt {
@@ -115,6 +129,27 @@ fn every_citation_in_the_code_has_the_one_spelling() {
                     .to_string();
                 wrong.push(format!("{shown}:{}: `{citation}`", number + 1));
             }
+        }
+    }
+    // The guide and the documents at the top, as prose: lines joined (a citation may wrap), code
+    // spans left out (they show spellings as examples).
+    for file in markdown_files() {
+        let text = std::fs::read_to_string(&file).unwrap_or_default();
+        let prose: String = text
+            .split('`')
+            .step_by(2)
+            .collect::<Vec<_>>()
+            .join(" ")
+            .split_whitespace()
+            .collect::<Vec<_>>()
+            .join(" ");
+        for citation in misspelt(&prose) {
+            let shown = file
+                .strip_prefix(workspace())
+                .unwrap()
+                .display()
+                .to_string();
+            wrong.push(format!("{shown}: `{citation}`"));
         }
     }
     assert!(
@@ -154,11 +189,11 @@ fn numbers(after: &str) -> Vec<String> {
     let mut found = Vec::new();
     let mut rest = after;
     let mut previous: Option<u32> = None;
-    loop {
-        let Some(open) = rest.strip_prefix('(') else {
-            break;
-        };
-        let label: String = open.chars().take_while(|c| c.is_alphanumeric()).collect();
+    while let Some(open) = rest.strip_prefix('(') {
+        let label: String = open
+            .chars()
+            .take_while(|c| c.is_alphanumeric() || *c == '.')
+            .collect();
         if !open[label.len()..].starts_with(')') || label.is_empty() {
             break;
         }
@@ -192,7 +227,8 @@ fn item_of(lines: &[&str], index: usize) -> String {
     if trimmed.starts_with("//!") || trimmed.starts_with('#') {
         return "module".into();
     }
-    let candidates: Box<dyn Iterator<Item = &&str>> = if trimmed.starts_with("///") {
+    let documented = trimmed.starts_with("///");
+    let candidates: Box<dyn Iterator<Item = &&str>> = if documented {
         Box::new(lines[index + 1..].iter())
     } else {
         Box::new(lines[..index].iter().rev())
@@ -202,10 +238,11 @@ fn item_of(lines: &[&str], index: usize) -> String {
         if line.starts_with("//") || line.starts_with("#[") {
             continue;
         }
-        if let Some(item) = item_name(line) {
+        // A `//` comment sits in a function: fields of a struct literal above it are not items.
+        if let Some(item) = item_name(line).filter(|i| documented || i.contains(' ')) {
             return item;
         }
-        if trimmed.starts_with("///") {
+        if documented {
             break;
         }
     }
@@ -233,7 +270,8 @@ fn item_name(line: &str) -> Option<String> {
         .chars()
         .take_while(|c| c.is_alphanumeric() || *c == '_')
         .collect();
-    (!field.is_empty() && rest[field.len()..].starts_with(':')).then(|| field)
+    let after = &rest[field.len()..];
+    (!field.is_empty() && after.starts_with(':') && !after.starts_with("::")).then_some(field)
 }
 
 /// The equation index of each chapter: equation → the places citing it, each `file` — item.
@@ -284,10 +322,13 @@ fn indexes() -> BTreeMap<&'static str, BTreeMap<(u32, String), Vec<String>>> {
 fn render(author: &str, places: &BTreeMap<(u32, String), Vec<String>>) -> String {
     let mut text = format!(
         "\nWhere each of {author}'s equations is implemented or discussed (search the code for \
-         `{author} eq (N)`).\n\n| {author} | where |\n| --- | --- |\n"
+         `{author} eq (N)`).\n\n| equation | where |\n| --- | --- |\n"
     );
     for ((_, equation), where_) in places {
-        text.push_str(&format!("| eq ({equation}) | {} |\n", where_.join("<br>")));
+        text.push_str(&format!(
+            "| {author} eq ({equation}) | {} |\n",
+            where_.join("<br>")
+        ));
     }
     text
 }
@@ -317,7 +358,7 @@ fn each_machine_chapter_holds_its_equation_index() {
             assert_eq!(
                 &text[at + MARKER.len()..],
                 format!("\n{generated}"),
-                "{}: the equation index is stale; TWIN_BLESS=1 cargo test -p tests --test docs",
+                "{}: the equation index is stale; TWIN_BLESS=1 cargo test -p twin-tests --test docs",
                 path.display()
             );
         }

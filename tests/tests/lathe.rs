@@ -1,6 +1,6 @@
 //! The parallel lathe (Sudhakara & Landers, ACC 2003) end to end: the rigid-body twin under the
-//! `output-feedback-force` controller against the reduced model of Sudhakara eq (17), inside and outside the
-//! region the slow design cannot recover from, and bad inputs refused before the run.
+//! `output-feedback-force` controller against the reduced model of Sudhakara eq (17), inside and
+//! outside the region the slow design cannot recover from, and bad inputs refused before the run.
 
 use twin::{ScenarioValue, Twin};
 use twin_cli::analysis::lathe::{analyze, Gains, PhasePlane, PhasePlaneRequest};

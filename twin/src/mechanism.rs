@@ -4,18 +4,23 @@
 /// A rigid transform in the plane: rotation by `angle` (rad, counter-clockwise) then translation.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct Pose2 {
+    /// Translation along the parent's x, m.
     pub x: f64,
+    /// Translation along the parent's y, m.
     pub y: f64,
+    /// Rotation, rad, counter-clockwise.
     pub angle: f64,
 }
 
 impl Pose2 {
+    /// No rotation and no translation: the frame is its parent's.
     pub const IDENTITY: Pose2 = Pose2 {
         x: 0.0,
         y: 0.0,
         angle: 0.0,
     };
 
+    /// The pose translated by (`x`, `y`) (m) after a rotation by `angle` (rad).
     pub fn new(x: f64, y: f64, angle: f64) -> Self {
         Self { x, y, angle }
     }
@@ -107,7 +112,9 @@ pub fn polygon_area(points: &[[f64; 2]]) -> f64 {
 /// A drawable or collision outline in a link's frame.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Shape {
+    /// The outline's frame in the link's frame.
     pub origin: Pose2,
+    /// Its geometry in its own frame.
     pub outline: Outline,
     /// RGBA in 0..1, from the URDF material when it has one.
     pub color: Option<[f32; 4]>,
@@ -139,16 +146,28 @@ impl Shape {
     }
 }
 
+/// The geometry of a [`Shape`] in the plane, sizes in m, centred on the shape's origin.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Outline {
     /// A URDF box seen from above, or a cylinder lying in the plane: full sizes along the
     /// shape's x and y.
-    Rectangle { width: f64, height: f64 },
+    Rectangle {
+        /// Full size along the shape's x, m.
+        width: f64,
+        /// Full size along the shape's y, m.
+        height: f64,
+    },
     /// A URDF cylinder (axis along z) or sphere.
-    Circle { radius: f64 },
+    Circle {
+        /// Radius, m.
+        radius: f64,
+    },
     /// A convex polygon, counter-clockwise, in the shape's frame: a mesh's outline on the plane
     /// (the convex hull of its vertices) or a scenario body's `points`.
-    Polygon { points: Vec<[f64; 2]> },
+    Polygon {
+        /// Vertices [x, y], m, counter-clockwise.
+        points: Vec<[f64; 2]>,
+    },
 }
 
 /// Mass properties about the centre of mass, in the link's frame.
@@ -186,16 +205,20 @@ pub enum JointMotion {
     /// Rotation about ±z. `sign` is +1 for axis +z, −1 for −z: the joint coordinate and its effort
     /// are counted about the URDF's axis.
     Revolute {
+        /// +1 or −1: the URDF axis's z component.
         sign: f64,
     },
     /// Translation along a unit axis in the joint frame's xy plane.
     Prismatic {
+        /// Unit direction of positive travel, in the joint frame.
         axis: [f64; 2],
     },
+    /// No relative motion: the child is welded to the parent.
     Fixed,
 }
 
 impl JointMotion {
+    /// Whether the joint has a coordinate (revolute or prismatic), not fixed.
     pub fn is_movable(&self) -> bool {
         !matches!(self, JointMotion::Fixed)
     }
@@ -209,7 +232,8 @@ pub struct Joint {
     /// Index into [`Mechanism::links`].
     pub parent: usize,
     pub child: usize,
-    /// The joint frame in the parent's frame; the child's frame coincides with it at zero coordinate.
+    /// The joint frame in the parent's frame; the child's frame coincides with it at zero
+    /// coordinate.
     pub origin: Pose2,
     /// Coordinate limits `[lower, upper]` in the URDF's sense (rad or m), when the joint has them.
     pub limits: Option<[f64; 2]>,
@@ -282,12 +306,17 @@ impl Wheel {
 /// joints and the rolling wheels.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Mechanism {
+    /// The URDF robot's name.
     pub name: String,
     /// Where it came from (a file path or `<string>`), for error messages.
     pub source: String,
+    /// Rigid bodies in tree order, the ground first.
     pub links: Vec<Link>,
+    /// Spanning-tree joints: joint `i` carries link `i + 1`.
     pub joints: Vec<Joint>,
+    /// Joints that close the tree's kinematic loops.
     pub loops: Vec<LoopJoint>,
+    /// Rolling wheels: spin states integrated by the machine, not tree bodies.
     pub wheels: Vec<Wheel>,
 }
 
@@ -299,10 +328,12 @@ impl Mechanism {
         own + below.map(|j| self.carried_mass(j.child)).sum::<f64>()
     }
 
+    /// Index into [`Mechanism::links`] of the link called `name`.
     pub fn link_index(&self, name: &str) -> Option<usize> {
         self.links.iter().position(|l| l.name == name)
     }
 
+    /// Index into [`Mechanism::joints`] of the tree joint called `name`.
     pub fn joint_index(&self, name: &str) -> Option<usize> {
         self.joints.iter().position(|j| j.name == name)
     }
@@ -316,6 +347,7 @@ impl Mechanism {
         poses
     }
 
+    /// Index into [`Mechanism::wheels`] of the wheel called `name`.
     pub fn wheel_index(&self, name: &str) -> Option<usize> {
         self.wheels.iter().position(|w| w.name == name)
     }

@@ -6,10 +6,13 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 use thiserror::Error;
 
+/// An output file could not be created, written or moved into place.
 #[derive(Debug, Error)]
 #[error("cannot write {}: {reason}", path.display())]
 pub struct OutputError {
+    /// The target file.
     pub path: PathBuf,
+    /// What the file system said.
     pub reason: String,
 }
 
@@ -21,7 +24,7 @@ pub struct OutputFile {
 }
 
 impl OutputFile {
-    /// Checks that `path` can be written (see [`temporary_beside`]) by creating the temporary
+    /// Checks that `path` can be written (see `temporary_beside`) by creating the temporary
     /// file now, before any long work.
     pub fn create(path: &Path) -> Result<Self, OutputError> {
         let temporary = temporary_beside(path).map_err(|reason| OutputError {
@@ -34,6 +37,7 @@ impl OutputFile {
         })
     }
 
+    /// The target the file is renamed onto when committed.
     pub fn path(&self) -> &Path {
         &self.path
     }

@@ -106,7 +106,9 @@ pub struct Scene {
     /// The fixed frame of the view, margins included; the twin widens it to hold the links at
     /// their URDF pose and the drawings.
     pub bounds: Bounds,
+    /// Static lines drawn with the links: what is being machined, contours, planned paths.
     pub drawings: Vec<Drawing>,
+    /// Points that move with the run, each at recorded signals.
     pub markers: Vec<Marker>,
 }
 

@@ -83,6 +83,7 @@ pub struct Noise {
 }
 
 impl Noise {
+    /// A source started at `seed`: the same seed gives the same sequence.
     pub fn new(seed: u64) -> Self {
         Self {
             state: seed,

@@ -8,7 +8,7 @@
 //!   <link1 link="slotted_link" xyz="0.4 0 0" rpy="0 0 0"/>  <!-- joint frame in link1 -->
 //!   <link2 link="block" xyz="0 0 0" rpy="0 0 0"/>           <!-- joint frame in link2 -->
 //!   <axis xyz="1 0 0"/>                                      <!-- prismatic: in the joint frame -->
-//! </loop_joint>
+//!   </loop_joint>
 //! ```
 //!
 //! The two frames must coincide (position, and for a prismatic joint also direction) in the pose
@@ -64,14 +64,30 @@ const LOOP_CLOSURE_TOLERANCE: f64 = 1e-6;
 /// Every defect found while loading a URDF, naming the file, the element and the reason.
 #[derive(Debug, Error, Clone, PartialEq)]
 pub enum UrdfError {
+    /// The URDF file cannot be read.
     #[error("{file}: cannot read: {reason}")]
-    Read { file: String, reason: String },
+    Read {
+        /// The file's path.
+        file: String,
+        /// What the file system said.
+        reason: String,
+    },
+    /// The text is not well-formed XML, nests too deep, or is not a `<robot>` URDF.
     #[error("{file}: malformed URDF: {reason}")]
-    Malformed { file: String, reason: String },
+    Malformed {
+        /// The file's path, or the name given to the text.
+        file: String,
+        /// What the parser said, with the line where it can.
+        reason: String,
+    },
+    /// A well-formed URDF describes no valid planar mechanism.
     #[error("{file}: {element}: {reason}")]
     Invalid {
+        /// The file's path, or the name given to the text.
         file: String,
+        /// The element at fault, e.g. `link "crank"`.
         element: String,
+        /// What is wrong with it.
         reason: String,
     },
 }

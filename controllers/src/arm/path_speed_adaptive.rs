@@ -5,11 +5,11 @@
 //! lead-lag filters `W_Fi(s) = (T_K3 s + 1)/(T_K4 s + 1)`; a motor is overloaded,
 //! `R_i`, when `|I_i,F| > I_tol`; `R` is the OR of all; the speed demand is `V_II = V0` when no
 //! motor is overloaded and 0 otherwise; and the path speed is `V_K = W_F0(s)·V_II` with
-//! `W_F0(s) = (T_K1 s + 1)/(T_K2 s + 1)`, `T_K2 = 1/ω_c` by default (ω_c the joint servos' open-loop
-//! crossover, as the paper recommends). Where no drive is overloaded `V_K` settles at `V0`; where
-//! the cut overloads one, `R` switches fast and `V_K` oscillates about the largest speed the
-//! drives can carry. The filters are [`FirstOrderFilter`]s (Tustin, at the control period). The
-//! joints follow the program at `V_K` through [`ArmServo`].
+//! `W_F0(s) = (T_K1 s + 1)/(T_K2 s + 1)`, `T_K2 = 1/ω_c` by default (ω_c the joint servos'
+//! open-loop crossover, as the paper recommends). Where no drive is overloaded `V_K` settles at
+//! `V0`; where the cut overloads one, `R` switches fast and `V_K` oscillates about the largest
+//! speed the drives can carry. The filters are [`FirstOrderFilter`]s (Tustin, at the control
+//! period). The joints follow the program at `V_K` through [`ArmServo`].
 //!
 //! Defaults: the paper's `V0` = 20 mm/s and `I_tol` = 18 A (its Figs. 2–3; converted to m/s
 //! here); the paper prints no time constants, so `T_K1`, `T_K3`, `T_K4` are the twin's tuning
@@ -50,6 +50,7 @@ pub struct PathSpeedAdaptiveParams {
     pub current_filter_lead: f64,
     /// T_K4 of W_Fi, s.
     pub current_filter_lag: f64,
+    /// The robot program and the joint servos, `[controller.params.servo]`.
     pub servo: ServoParams,
 }
 
@@ -70,9 +71,13 @@ impl Default for PathSpeedAdaptiveParams {
 /// The filters and figures produced by [`design`].
 #[derive(Debug, Clone, PartialEq)]
 pub struct SpeedCorrection {
+    /// Largest path speed V0, m/s: the speed demand while no motor is overloaded.
     pub path_speed: f64,
+    /// Permissible motor current I_tol, A.
     pub tolerance: f64,
+    /// W_F0, from the speed demand V_II to the path speed V_K.
     pub speed_filter: FirstOrderFilter,
+    /// W_Fi, applied to each motor current before the comparison with I_tol.
     pub current_filter: FirstOrderFilter,
 }
 
@@ -119,6 +124,8 @@ pub(crate) fn lead_lag(
     })
 }
 
+/// The running `path-speed-adaptive` controller: the joint servos following the program at the
+/// path speed V_K that the filtered motor currents allow.
 pub struct PathSpeedAdaptive {
     servo: ArmServo,
     correction: SpeedCorrection,
@@ -136,6 +143,7 @@ pub struct PathSpeedAdaptive {
 }
 
 impl PathSpeedAdaptive {
+    /// Designs the servo and the speed correction; errors name the parameter at fault.
     pub fn new(params: PathSpeedAdaptiveParams) -> Result<Self, ControllerError> {
         let servo = ArmServo::new(NAME, params.servo.clone())?;
         let correction = design(&params, servo.design().crossover)?;

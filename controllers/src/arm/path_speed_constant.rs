@@ -29,6 +29,7 @@ pub struct PathSpeedConstantParams {
     pub speed_filter_lead: f64,
     /// T_K2 of W_F0, s; absent: 1/ω_c.
     pub speed_filter_lag: Option<f64>,
+    /// The robot program and the joint servos, `[controller.params.servo]`.
     pub servo: ServoParams,
 }
 
@@ -43,6 +44,8 @@ impl Default for PathSpeedConstantParams {
     }
 }
 
+/// The running `path-speed-constant` controller: the joint servos following the program at the
+/// programmed path speed, brought up from rest through W_F0.
 pub struct PathSpeedConstant {
     servo: ArmServo,
     speed: f64,
@@ -52,6 +55,7 @@ pub struct PathSpeedConstant {
 }
 
 impl PathSpeedConstant {
+    /// Designs the servo and W_F0; errors name the parameter at fault.
     pub fn new(params: PathSpeedConstantParams) -> Result<Self, ControllerError> {
         let servo = ArmServo::new(NAME, params.servo.clone())?;
         positive(NAME, "path_speed", params.path_speed)?;

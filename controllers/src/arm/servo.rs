@@ -10,10 +10,10 @@
 //! out, the inertia the elbow feels, `1/(M⁻¹)₂₂` = 0.085 kg·m², is a twelfth of `M₂₂` and a ninth
 //! of its `M₂₂` on the contour — and a per-joint PID designed for one pose chatters rail to rail
 //! at another. The servo therefore works per unit inertia: each joint's PID asks for the
-//! acceleration `a = q̈_r + K_d·ė + K_p·e + K_i·∫e` (1), whose three closed-loop poles
+//! acceleration `a = q̈_r + K_d·ė + K_p·e + K_i·∫e` (S1), whose three closed-loop poles
 //! `s³ + K_d s² + K_p s + K_i = (s + ω)³` sit at `−ω` (bandwidth ω) with `K_d = 3ω`, `K_p = 3ω²`,
-//! `K_i = ω³` (2); the drives are asked for the joint torques that give it,
-//! `i* = (G·k_t)⁻¹·M̂(q)·a` (3), `M̂` the rigid-body model of the arm from the servo's own link
+//! `K_i = ω³` (S2); the drives are asked for the joint torques that give it,
+//! `i* = (G·k_t)⁻¹·M̂(q)·a` (S3), `M̂` the rigid-body model of the arm from the servo's own link
 //! parameters ([`models::serial_chain`]). With `M̂ = M` each joint error obeys
 //! `ë = −(K_d·ė + K_p·e + K_i·∫e)` at every pose. Gravity, the Coriolis terms and the cutting
 //! force's reaction are disturbances the integral takes up. The commands are kept within the
@@ -63,6 +63,7 @@ pub fn internals() -> Vec<SignalSpec> {
 pub struct ServoParams {
     /// The arm's kinematic model (must describe the URDF).
     pub arm: ArmGeometry,
+    /// Which side of the shoulder–wrist line the elbow takes in the inverse kinematics.
     pub elbow: Elbow,
     /// The part contour: the program's control points are taken along it.
     pub contour: Contour,
@@ -112,23 +113,27 @@ impl Default for ServoParams {
     }
 }
 
-/// PID gains per unit inertia, Ilyukhin eq (2): acceleration demand in rad/s² per rad, per rad·s and per
+/// PID gains per unit inertia, (S2): acceleration demand in rad/s² per rad, per rad·s and per
 /// rad/s.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct JointGains {
+    /// K_p = 3ω², 1/s².
     pub kp: f64,
+    /// K_i = ω³, 1/s³.
     pub ki: f64,
+    /// K_d = 3ω, 1/s.
     pub kd: f64,
 }
 
 /// The servo design and the program built from the parameters.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ServoDesign {
-    /// The gains of every joint's PID, Ilyukhin eq (1).
+    /// The gains of every joint's PID, (S1).
     pub gains: JointGains,
-    /// The arm's rigid-body model `M̂(q)` of Ilyukhin eq (3) comes from: the three joints and the cutter
+    /// The arm's rigid-body model `M̂(q)` of (S3) comes from: the three joints and the cutter
     /// welded on the spindle axis (its joint held at 0).
     pub model: SerialChain,
+    /// The robot program: the joint angles as cubics in the path length along the contour.
     pub program: JointPath,
     /// Joint angles at the clearance point above the contour's start.
     pub clearance_point: [f64; 3],
@@ -136,7 +141,7 @@ pub struct ServoDesign {
     pub crossover: f64,
 }
 
-/// Gains by pole placement (Ilyukhin eq (2)), the arm's model and the program through the inverse
+/// Gains by pole placement (S2), the arm's model and the program through the inverse
 /// kinematics. Errors name the entry of `[controller.params.servo]` at fault.
 pub fn design(controller: &str, params: &ServoParams) -> Result<ServoDesign, ControllerError> {
     let w = positive(controller, "servo.bandwidth", params.bandwidth)?;
@@ -152,7 +157,7 @@ pub fn design(controller: &str, params: &ServoParams) -> Result<ServoDesign, Con
             controller,
             "servo.bandwidth",
             w,
-            "must be small enough that the gain K_i = ω³ of eq (2) does not overflow",
+            "must be small enough that the gain K_i = ω³ of (S2) does not overflow",
         ));
     }
     for (i, value) in params.torque_per_ampere.iter().enumerate() {
@@ -262,7 +267,7 @@ fn model(controller: &str, params: &ServoParams) -> Result<SerialChain, Controll
     })
 }
 
-/// Crossover of `L(s) = ω(3s² + 3ωs + ω²)/s³` (the PID of Ilyukhin eq (2) over the unit inertia):
+/// Crossover of `L(s) = ω(3s² + 3ωs + ω²)/s³` (the PID of (S2) over the unit inertia):
 /// `|L(jx)| = 1` solved by bisection.
 fn crossover(w: f64) -> f64 {
     let magnitude =
@@ -285,7 +290,12 @@ pub enum Stage {
     /// Waiting for the first measurement.
     Idle,
     /// Moving from `from` over the clearance point to the first control point since `since`.
-    Approach { from: [f64; 3], since: f64 },
+    Approach {
+        /// Joint angles where the approach began, rad.
+        from: [f64; 3],
+        /// Time the approach began, s.
+        since: f64,
+    },
     /// Following the contour.
     Machining,
     /// At the end of the contour.
@@ -301,10 +311,15 @@ pub struct ArmServo {
     actuators: [usize; 3],
     current_limits: [f64; 3],
     integrals: [f64; 3],
+    /// Where the arm is in its cycle.
     pub stage: Stage,
+    /// How far the program has come along the contour.
     pub cursor: PathCursor,
+    /// Joint angle references of the last update, rad.
     pub reference: [f64; 3],
+    /// Joint errors `q_r − q` of the last update, rad.
     pub errors: [f64; 3],
+    /// Current commands of the last update, before the twin's clip, A.
     pub commands: [f64; 3],
 }
 
@@ -328,6 +343,7 @@ impl ArmServo {
         })
     }
 
+    /// The gains, the arm's model and the program the servo was built with.
     pub fn design(&self) -> &ServoDesign {
         &self.design
     }
@@ -436,7 +452,7 @@ impl ArmServo {
         event
     }
 
-    /// The joint servos, Ilyukhin eqs (1) and (3): the PID's acceleration demand through `M̂(q)` to
+    /// The joint servos, (S1) and (S3): the PID's acceleration demand through `M̂(q)` to
     /// current commands within the limits ([`limited_torques`]); a joint's integral stops while
     /// its command is clipped.
     fn servo(&mut self, q: [f64; 3], velocity: [f64; 3], reference: Reference, period: f64) {
@@ -468,7 +484,7 @@ impl ArmServo {
     }
 }
 
-/// Ilyukhin eq (3) within the drives' torque limits: `τ = M̂·a`, except that a joint whose torque would
+/// (S3) within the drives' torque limits: `τ = M̂·a`, except that a joint whose torque would
 /// pass its limit is held at the limit and its acceleration left to follow, while the others
 /// still get the accelerations they demand — `M̂·a = τ` solved for the clipped joints'
 /// accelerations and the free joints' torques, clipping the joint furthest over its limit until

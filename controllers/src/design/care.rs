@@ -29,17 +29,28 @@ pub enum CareError {
     DimensionMismatch(String),
     /// A NaN or infinite entry.
     #[error("CARE input {matrix} has a non-finite entry")]
-    NonFinite { matrix: &'static str },
+    NonFinite {
+        /// Which input: `A`, `B`, `Q` or `R`.
+        matrix: &'static str,
+    },
     /// Q must be symmetric positive semidefinite (a state cost).
     #[error("CARE weight Q must be symmetric positive semidefinite ({reason})")]
-    QNotPositiveSemidefinite { reason: String },
+    QNotPositiveSemidefinite {
+        /// What is wrong with Q (asymmetry, a negative eigenvalue).
+        reason: String,
+    },
     /// R must be symmetric positive definite (every input costs something).
     #[error("CARE weight R must be symmetric positive definite ({reason})")]
-    RNotPositiveDefinite { reason: String },
+    RNotPositiveDefinite {
+        /// What is wrong with R (asymmetry, no Cholesky factor).
+        reason: String,
+    },
     /// An iterative stage ran out of iterations.
     #[error("CARE {stage} did not converge within {iterations} iterations")]
     NoConvergence {
+        /// The stage that gave up, e.g. `matrix sign iteration`.
         stage: &'static str,
+        /// The iteration cap it reached.
         iterations: usize,
     },
     /// No stabilising solution exists: `(A, B)` is not stabilisable or `(A, Q)` has an
@@ -47,10 +58,18 @@ pub enum CareError {
     #[error(
         "no stabilising CARE solution: (A, B) not stabilisable or (A, Q) not detectable ({reason})"
     )]
-    Unstabilisable { reason: String },
+    Unstabilisable {
+        /// The symptom: a singular iterate, a rank-deficient basis, a non-Hurwitz `A − BK`, …
+        reason: String,
+    },
     /// A solution was found but does not satisfy the equation to the required accuracy.
     #[error("CARE solution inaccurate: backward residual {backward_residual:e} exceeds {limit:e}")]
-    Inaccurate { backward_residual: f64, limit: f64 },
+    Inaccurate {
+        /// The backward residual reached (see [`CareSolution::backward_residual`]).
+        backward_residual: f64,
+        /// The accepted limit, [`CareOptions::max_backward_residual`].
+        limit: f64,
+    },
 }
 
 /// Iteration controls of the sign-function solver.

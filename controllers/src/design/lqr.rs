@@ -1,6 +1,7 @@
 //! Infinite-horizon linear-quadratic regulator: the state feedback `u = −Kx` minimising
-//! `∫ xᵀQx + uᵀRu dt` for `ẋ = Ax + Bu`. The Whitworth paper's LQT baseline (Perrusquía eq (39)) and
-//! the reduced problem behind the optimal sliding hyperplane (Perrusquía eqs (24)–(25)) are both of this form.
+//! `∫ xᵀQx + uᵀRu dt` for `ẋ = Ax + Bu`. The Whitworth paper's LQT baseline (Perrusquía eq (39))
+//! and the reduced problem behind the optimal sliding hyperplane (Perrusquía eqs (24)–(25)) are
+//! both of this form.
 
 use super::care::{solve_care, CareError};
 use nalgebra::DMatrix;

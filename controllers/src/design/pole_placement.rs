@@ -4,9 +4,9 @@
 //! baseline is tuned: Perrusquía eq (38) asks for `det(λI − A + BK) = λ² + 2ξω_nλ + ω_n²`.
 //!
 //! Sign convention: the closed loop is `A − bK`, i.e. `u = −Kx` on the state, or `u = +Ke` on the
-//! paper's error `e = z_d − z` (Perrusquía eq (12) has `ė = Ae − B(u + …)`). The paper writes its feedback as
-//! `u_f = −Ke` next to Perrusquía eq (38), which with its own error definition would give `A + BK`; the gains
-//! here are the ones that realise Perrusquía eq (38) itself.
+//! paper's error `e = z_d − z` (Perrusquía eq (12) has `ė = Ae − B(u + …)`). The paper writes its
+//! feedback as `u_f = −Ke` next to Perrusquía eq (38), which with its own error definition would
+//! give `A + BK`; the gains here are the ones that realise Perrusquía eq (38) itself.
 //!
 //! Ackermann's formula inverts the controllability matrix, so it is meant for the small models
 //! used here (a few states), not as a general-purpose placement routine.
@@ -23,19 +23,32 @@ pub enum PolePlacementError {
     DimensionMismatch(String),
     /// The number of poles (a complex pair counts twice) or coefficients differs from n.
     #[error("pole placement needs {expected} poles/coefficients, got {got}")]
-    WrongOrder { expected: usize, got: usize },
+    WrongOrder {
+        /// The state dimension n.
+        expected: usize,
+        /// The order the poles or coefficients give.
+        got: usize,
+    },
     /// A NaN or infinite value in the model or the specification.
     #[error("pole placement input {what} has a non-finite entry")]
-    NonFinite { what: &'static str },
+    NonFinite {
+        /// Which input: `A`, `b`, `coefficients` or `poles`.
+        what: &'static str,
+    },
     /// A second-order specification with ω_n ≤ 0 or ξ < 0.
     #[error("second-order specification needs ω_n > 0 and ξ ≥ 0 (got ω_n = {natural_frequency}, ξ = {damping_ratio})")]
     BadSecondOrder {
+        /// The natural frequency ω_n given, rad/s.
         natural_frequency: f64,
+        /// The damping ratio ξ given.
         damping_ratio: f64,
     },
     /// `(A, b)` is not controllable, so some poles cannot be moved.
     #[error("(A, b) is not controllable: controllability matrix σ_min/σ_max = {ratio:e}")]
-    Uncontrollable { ratio: f64 },
+    Uncontrollable {
+        /// σ_min/σ_max of the controllability matrix `[b, Ab, …, Aⁿ⁻¹b]`.
+        ratio: f64,
+    },
 }
 
 /// A desired closed-loop pole; complex poles are given once and stand for the conjugate pair,
@@ -46,7 +59,12 @@ pub enum Pole {
     /// A real pole at `s = value`, rad/s.
     Real(f64),
     /// The pair `s = re ± i·im`, rad/s.
-    Complex { re: f64, im: f64 },
+    Complex {
+        /// Real part, rad/s; negative for a stable pair.
+        re: f64,
+        /// Imaginary part (damped frequency), rad/s.
+        im: f64,
+    },
 }
 
 /// Relative singular value below which the controllability matrix counts as singular.

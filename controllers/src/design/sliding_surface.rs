@@ -1,23 +1,26 @@
 //! Optimal sliding hyperplane `s = C·e` (Whitworth paper §5.2, Perrusquía eqs (13)–(26)).
 //!
 //! Construction, for `ė = Ae − B(u + …)` with B (n×m) of full column rank:
-//! 1. Regular form (Perrusquía eqs (14)–(16)): `Ψ = T·e` with `T = [N; B†]`, where the rows of `N` are an
-//!    orthonormal basis of the left null space of B (`N·B = 0`) and `B† = (BᵀB)⁻¹Bᵀ`; then
-//!    `T·B = [0; I]`, `T⁻¹ = [Nᵀ, B]`, and `Ā = T·A·T⁻¹` splits into `A₁₁ … A₂₂` (Perrusquía eq (17)).
-//! 2. The cost `∫ eᵀQe` (Perrusquía eq (20)) in the new coordinates (Perrusquía eq (21)) has weight `T⁻ᵀ·Q·T⁻¹`, split into
-//!    `Q₁₁, Q₁₂, Q₂₂`.
-//! 3. With `Ψ₂` as the input of the `Ψ₁` subsystem, the change `v = Ψ₂ + Q₂₂⁻¹Q₁₂ᵀΨ₁` (Perrusquía eq (22))
-//!    removes the cross term: `Ψ̇₁ = (A₁₁ − A₁₂Q₂₂⁻¹Q₁₂ᵀ)Ψ₁ + A₁₂v` (Perrusquía eq (23)) with cost
-//!    `∫ Ψ₁ᵀQ̄Ψ₁ + vᵀQ₂₂v`, `Q̄ = Q₁₁ − Q₁₂Q₂₂⁻¹Q₁₂ᵀ` (Perrusquía eq (24)).
+//! 1. Regular form (Perrusquía eqs (14)–(16)): `Ψ = T·e` with `T = [N; B†]`, where the rows of `N`
+//!    are an orthonormal basis of the left null space of B (`N·B = 0`) and `B† = (BᵀB)⁻¹Bᵀ`; then
+//!    `T·B = [0; I]`, `T⁻¹ = [Nᵀ, B]`, and `Ā = T·A·T⁻¹` splits into `A₁₁ … A₂₂` (Perrusquía eq
+//!    (17)).
+//! 2. The cost `∫ eᵀQe` (Perrusquía eq (20)) in the new coordinates (Perrusquía eq (21)) has weight
+//!    `T⁻ᵀ·Q·T⁻¹`, split into `Q₁₁, Q₁₂, Q₂₂`.
+//! 3. With `Ψ₂` as the input of the `Ψ₁` subsystem, the change `v = Ψ₂ + Q₂₂⁻¹Q₁₂ᵀΨ₁`
+//!    (Perrusquía eq (22)) removes the cross term: `Ψ̇₁ = (A₁₁ − A₁₂Q₂₂⁻¹Q₁₂ᵀ)Ψ₁ + A₁₂v`
+//!    (Perrusquía eq (23)) with cost `∫ Ψ₁ᵀQ̄Ψ₁ + vᵀQ₂₂v`,
+//!    `Q̄ = Q₁₁ − Q₁₂Q₂₂⁻¹Q₁₂ᵀ` (Perrusquía eq (24)).
 //! 4. That LQR problem (Perrusquía eq (25), Riccati solution `P`) gives `Ψ₂ = −C₁Ψ₁`,
-//!    `C₁ = Q₂₂⁻¹(A₁₂ᵀP + Q₁₂ᵀ)` (Perrusquía eq (26)); with `C₂ = I` (Perrusquía eq (19)) the hyperplane in the original
+//!    `C₁ = Q₂₂⁻¹(A₁₂ᵀP + Q₁₂ᵀ)` (Perrusquía eq (26)); with `C₂ = I` (Perrusquía eq (19)) the
+//!    hyperplane in the original
 //!    error coordinates is `C = [C₁, I]·T = C₁·N + B†`, so `C·B = I` (used in Appendix A).
 //!
-//! Two misprints in the paper are corrected here. Perrusquía eq (21) writes the transformed weight as
-//! `T·Q·T⁻¹` (a similarity); the cost `eᵀQe = Ψᵀ(T⁻ᵀQT⁻¹)Ψ` needs the congruence. With the
+//! Two misprints in the paper are corrected here. Perrusquía eq (21) writes the transformed weight
+//! as `T·Q·T⁻¹` (a similarity); the cost `eᵀQe = Ψᵀ(T⁻ᵀQT⁻¹)Ψ` needs the congruence. With the
 //! similarity, the slider's sliding pole would come out as `−b·√(q₁/q₂)` — depending on the mass —
-//! instead of the optimum `−√(q₁/q₂)` of `∫ q₁e² + q₂ė²`. Perrusquía eq (23) prints `A₂₂` where substituting
-//! Perrusquía eq (22) into Perrusquía eq (17) gives `A₁₂`.
+//! instead of the optimum `−√(q₁/q₂)` of `∫ q₁e² + q₂ė²`. Perrusquía eq (23) prints `A₂₂` where
+//! substituting Perrusquía eq (22) into Perrusquía eq (17) gives `A₁₂`.
 
 use super::care::{solve_care, CareError};
 use nalgebra::{Cholesky, DMatrix, SymmetricEigen, SVD};
@@ -32,19 +35,33 @@ pub enum SlidingSurfaceError {
     DimensionMismatch(String),
     /// A NaN or infinite entry.
     #[error("sliding-surface input {matrix} has a non-finite entry")]
-    NonFinite { matrix: &'static str },
+    NonFinite {
+        /// Which input: `A`, `B` or `Q`.
+        matrix: &'static str,
+    },
     /// B must have full column rank for T (Perrusquía eq (15)) to be invertible.
     #[error("B must have full column rank (σ_min/σ_max = {ratio:e})")]
-    InputRankDeficient { ratio: f64 },
+    InputRankDeficient {
+        /// σ_min/σ_max of B.
+        ratio: f64,
+    },
     /// Q must be symmetric positive semidefinite.
     #[error("Q must be symmetric positive semidefinite ({reason})")]
-    BadStateWeight { reason: String },
+    BadStateWeight {
+        /// What is wrong with Q (asymmetry, a negative eigenvalue).
+        reason: String,
+    },
     /// `Q₂₂ = BᵀQB` must be positive definite: it is the input weight of the reduced problem.
     #[error("Q₂₂ = BᵀQB must be positive definite: Q has to weight the input directions")]
     InputDirectionsUnweighted,
     /// Slider model or weights out of range.
     #[error("slider design needs {what} > 0 and finite (got {value})")]
-    BadSliderParameter { what: &'static str, value: f64 },
+    BadSliderParameter {
+        /// Which one: `mass`, `position weight` or `velocity weight`.
+        what: &'static str,
+        /// The value given (kg for the mass).
+        value: f64,
+    },
     /// The reduced LQR problem (Perrusquía eq (25)) failed.
     #[error("reduced LQR problem of the sliding surface: {0}")]
     Reduced(#[from] CareError),
@@ -59,18 +76,19 @@ pub struct SlidingHyperplane {
     pub transform: DMatrix<f64>,
     /// `C₁` (m×(n−m)) of Perrusquía eq (26).
     pub c1: DMatrix<f64>,
-    /// Riccati solution `P` of the reduced problem (Perrusquía eq (25)); the sliding-motion cost from `Ψ₁(0)`
-    /// is `Ψ₁(0)ᵀPΨ₁(0)`.
+    /// Riccati solution `P` of the reduced problem (Perrusquía eq (25)); the sliding-motion cost
+    /// from `Ψ₁(0)` is `Ψ₁(0)ᵀPΨ₁(0)`.
     pub riccati: DMatrix<f64>,
     /// `A₁₁ − A₁₂C₁`: the reduced-order dynamics `Ψ̇₁ = (A₁₁ − A₁₂C₁)Ψ₁` while `s = 0`.
     pub sliding_matrix: DMatrix<f64>,
 }
 
-/// Weights of `∫ q_pos·e² + q_vel·ė² dt` (Perrusquía eq (20) with `Q = diag(q_pos, q_vel)`) for the slider.
+/// Weights of `∫ q_pos·e² + q_vel·ė² dt` (Perrusquía eq (20) with `Q = diag(q_pos, q_vel)`) for the
+/// slider.
 ///
 /// The optimum sliding motion is `ė = −√(q_pos/q_vel)·e`. The default ratio 1000 puts that pole at
-/// `−√1000 ≈ −31.6 rad/s`, the natural frequency of the baseline of Perrusquía eq (38), so the two designs
-/// have the same bandwidth. The paper gives no numeric Q for the OSMC.
+/// `−√1000 ≈ −31.6 rad/s`, the natural frequency of the baseline of Perrusquía eq (38), so the two
+/// designs have the same bandwidth. The paper gives no numeric Q for the OSMC.
 #[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct SliderWeights {
@@ -167,8 +185,9 @@ pub fn optimal_hyperplane(
         return Err(SlidingSurfaceError::InputRankDeficient { ratio });
     }
 
-    // Perrusquía eq (15). Householder QR of [B, I] yields a full orthogonal factor whose first m columns span
-    // range(B) (B has full rank), so the remaining columns span its orthogonal complement.
+    // Perrusquía eq (15). Householder QR of [B, I] yields a full orthogonal factor whose first m
+    // columns span range(B) (B has full rank), so the remaining columns span its orthogonal
+    // complement.
     let p = n - m;
     let mut augmented = DMatrix::<f64>::zeros(n, m + n);
     augmented.view_mut((0, 0), (n, m)).copy_from(b);
@@ -329,7 +348,8 @@ mod tests {
     #[test]
     fn cross_weight_leaves_the_slider_surface_unchanged() {
         // ∫ 2q₁₂·e·ė dt = q₁₂·[e²] depends only on the end points, so C must not move. A
-        // similarity-transformed weight (Perrusquía eq (21) as printed) would break this invariance.
+        // similarity-transformed weight (Perrusquía eq (21) as printed) would break this
+        // invariance.
         let (a, b) = slider_state_space(2.0).unwrap();
         let plain = optimal_hyperplane(
             &a,

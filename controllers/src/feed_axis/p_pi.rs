@@ -35,8 +35,11 @@ use serde::Deserialize;
 const NAME: &str = "p-pi";
 
 /// Measured reference signals the feed-axis controllers read, as the scenario names them.
+/// This one: the table position reference x_ref, m.
 pub const REFERENCE_SIGNAL: &str = "reference";
+/// The reference's rate ẋ_ref, m/s.
 pub const REFERENCE_RATE_SIGNAL: &str = "reference_rate";
+/// The reference's acceleration ẍ_ref, m/s².
 pub const REFERENCE_ACCELERATION_SIGNAL: &str = "reference_acceleration";
 
 /// A linear-motor feed axis as the paper's controllers see it: the measured table position, the
@@ -54,9 +57,13 @@ pub struct FeedAxis {
 /// One period's reading of a [`FeedAxis`]: m, m, m/s, m/s².
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct FeedAxisSample {
+    /// Measured table position x̂, m.
     pub table_position: f64,
+    /// Position reference x_ref, m.
     pub reference: f64,
+    /// Reference velocity ẋ_ref, m/s.
     pub reference_rate: f64,
+    /// Reference acceleration ẍ_ref, m/s².
     pub reference_acceleration: f64,
 }
 
@@ -75,6 +82,7 @@ impl FeedAxis {
         })
     }
 
+    /// This period's table position and reference, read from `measurement`.
     pub fn sample(&self, measurement: &Measurement) -> FeedAxisSample {
         FeedAxisSample {
             table_position: measurement.get(self.table_position),
@@ -199,6 +207,7 @@ pub struct PPi {
 }
 
 impl PPi {
+    /// Designs the gains and the velocity estimate; errors name the parameter at fault.
     pub fn new(params: PPiParams) -> Result<Self, ControllerError> {
         let gains = design(&params)?;
         let velocity_estimate = FirstOrderFilter::derivative(params.velocity_filter_time_constant)

@@ -2,15 +2,15 @@
 //! Rubio, Ibeas & Luo (their §IV; the paper numbers equations afresh in each section, so "IV.(n)"
 //! below is eq (n) of §IV).
 //!
-//! **Surface.** The PID-type surface of IV.(6), `S = ė + μ e + λ ∫e` with `e = x_ref − x`, where the
-//! velocity error uses the velocity ẋ̂ estimated from the measured position by a first-order
+//! **Surface.** The PID-type surface of IV.(6), `S = ė + μ e + λ ∫e` with `e = x_ref − x`, where
+//! the velocity error uses the velocity ẋ̂ estimated from the measured position by a first-order
 //! filtered derivative `s/(τ_v s + 1)` (the paper measures position only). On `S ≡ 0` the error
 //! obeys `s² + μ s + λ = 0`, which is strictly Hurwitz exactly when μ > 0 and λ > 0.
 //!
 //! **Equivalent control.** Setting `Ṡ = 0` (IV.(7)–(8)) and substituting the plant (IV.(9)) with
 //! the estimates m̂, b̂ gives `F_eq = m̂ (ẍ_ref + μ ė̂ + λ e) + b̂ ẋ̂`. With the paper's choice
-//! μ = b̂/m̂ the velocity terms cancel and this is IV.(10), `m̂ ẍ_ref + b̂ ẋ_ref + m̂ λ e`, which needs
-//! no velocity estimate; μ is that by default and may be set apart from it.
+//! μ = b̂/m̂ the velocity terms cancel and this is IV.(10), `m̂ ẍ_ref + b̂ ẋ_ref + m̂ λ e`, which
+//! needs no velocity estimate; μ is that by default and may be set apart from it.
 //!
 //! **Switching.** IV.(11) adds the super-twisting term `Λ √|S| sign S + v` with `v̇ = W sign S`
 //! (Levant, Int. J. Control 58 (1993) 1247–1263; Lyapunov gain conditions in Moreno & Osorio,
@@ -24,10 +24,10 @@
 //! its printed law implies W = 1 N/s. Here λ = 135 s⁻² places the sliding dynamics' poles
 //! together near −11.6 rad/s with μ = b̂/m̂ = 23.2 s⁻¹. W = 1 N/s is kept: it exceeds the rate of
 //! the slow part of the micro-milling load (its drag, a few mN/s at the paper's feed; see
-//! `models::feed_axis::micromilling`) but not that of the 384 Hz tooth ripple (≈4 N/s), whose effect on the
-//! 10 kg table is of order 10⁻¹¹ m. Λ = 10 N·(s/m)^½ was chosen on the test rig (10 kHz loop,
-//! τ_v = 1 ms): it settles the start from rest within a few milliseconds, whereas W ≥ 3 N/s or
-//! Λ ≥ 50 make the sampled loop, which sees the velocity through the filter, chatter.
+//! `models::feed_axis::micromilling`) but not that of the 384 Hz tooth ripple (≈4 N/s), whose
+//! effect on the 10 kg table is of order 10⁻¹¹ m. Λ = 10 N·(s/m)^½ was chosen on the test rig (10
+//! kHz loop, τ_v = 1 ms): it settles the start from rest within a few milliseconds, whereas W ≥ 3
+//! N/s or Λ ≥ 50 make the sampled loop, which sees the velocity through the filter, chatter.
 use super::p_pi::{FeedAxis, FeedAxisSample};
 use crate::check::{finite, non_negative, positive, require};
 use crate::filters::FirstOrderFilter;
@@ -286,6 +286,7 @@ pub struct Stsmc {
 }
 
 impl Stsmc {
+    /// Designs the sliding law and its velocity estimate; errors name the parameter at fault.
     pub fn new(params: StsmcParams) -> Result<Self, ControllerError> {
         let law = SuperTwistingLaw::new("stsmc", &params)?;
         Ok(Self {

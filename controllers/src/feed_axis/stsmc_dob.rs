@@ -56,7 +56,9 @@ const OBSERVER_KEYS: [&str; 1] = ["observer_bandwidth"];
 /// Parameters of `stsmc-dob`: one flat table holding the sliding law's keys and the observer's.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct StsmcDobParams {
+    /// The super-twisting law's parameters, as for `stsmc`.
     pub sliding: StsmcParams,
+    /// The disturbance observer's parameters (`observer_bandwidth`).
     pub observer: ObserverParams,
 }
 
@@ -113,6 +115,7 @@ impl DisturbanceObserver {
         })
     }
 
+    /// Clears the filters and the estimate, as before a run.
     pub fn reset(&mut self) {
         for filter in [
             &mut self.table_rate,
@@ -155,6 +158,8 @@ pub struct StsmcDob {
 }
 
 impl StsmcDob {
+    /// Designs the sliding law and the observer (on the law's m̂ and b̂); errors name the
+    /// parameter at fault.
     pub fn new(params: StsmcDobParams) -> Result<Self, ControllerError> {
         let law = SuperTwistingLaw::new(NAME, &params.sliding)?;
         let bandwidth = params.observer.observer_bandwidth;

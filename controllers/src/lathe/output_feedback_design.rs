@@ -1,24 +1,28 @@
 //! Output-feedback power control of the parallel lathe (Sudhakara & Landers, ACC 2003): the
-//! three-step design of Sudhakara eqs (12)–(15), Theorem 1's consistency check, and the global-stability
-//! condition of Sudhakara eq (23).
+//! three-step design of Sudhakara eqs (12)–(15), Theorem 1's consistency check, and the
+//! global-stability condition of Sudhakara eq (23).
 //!
 //! The design works on the linearisation Sudhakara eq (7) about the reference forces:
 //! ΔḞ = A ΔF + B Δf_c, ΔP = C ΔF with A = diag(−1/τ_i), B = diag(K̄_iα/τ_i), C = [V_1 V_2].
-//! The 1/τ_i in B is what Sudhakara eqs (8), (11) and (12) imply; Sudhakara eq (7a) prints B without it.
+//! The 1/τ_i in B is what Sudhakara eqs (8), (11) and (12) imply; Sudhakara eq (7a) prints B
+//! without it.
 //!
 //! Two printing errors in the paper matter here, both checked by the tests below:
-//! - Sudhakara eq (15), the closed form of H = K C⁺, has the wrong sign on h_1 and lacks the 1/(m_1 m_2)
-//!   of Sudhakara eq (12) in h_2. The gains here are computed as Sudhakara eq (14) says, with nalgebra's
-//!   pseudo-inverse; they reproduce the behaviour of the paper's Figs 4–9, the printed Sudhakara eq (15)
+//! - Sudhakara eq (15), the closed form of H = K C⁺, has the wrong sign on h_1 and lacks the 1/(m_1
+//!   m_2) of Sudhakara eq (12) in h_2. The gains here are computed as Sudhakara eq (14) says, with
+//!   nalgebra's
+//!   pseudo-inverse; they reproduce the behaviour of the paper's Figs 4–9, the printed
+//!   Sudhakara eq (15)
 //!   does not (for m = 1.5 / 1.49 s it makes the reference forces a saddle).
-//! - Sudhakara eq (23) is printed as h_i ≥ f_ni/P_max, but its own derivation (the zero-feed line of
-//!   Sudhakara eq (21) at P = P_max + f_ni/h_i must not enter the positive quadrant) and the Lyapunov
+//! - Sudhakara eq (23) is printed as h_i ≥ f_ni/P_max, but its own derivation (the zero-feed line
+//!   of Sudhakara eq (21) at P = P_max + f_ni/h_i must not enter the positive quadrant) and the
+//!   Lyapunov
 //!   gains of Sudhakara eq (26) (h_i = −f_ni/P_max) give h_i ≥ −f_ni/P_max, the form checked here.
 //!
-//! Theorem 1 does not hold for Sudhakara eq (12)'s K in general: K C⁺ C = K needs every row of K parallel
-//! to C, i.e. τ_1 = V_2/V_1 and τ_2(m_1 + m_2) − m_1 m_2 = τ_1 τ_2. For Table 1 it fails, so the
-//! output feedback does not place the poles at −1/m_i; [`Consistency::Report`] keeps the design
-//! (as the paper did) and reports the poles it does place.
+//! Theorem 1 does not hold for Sudhakara eq (12)'s K in general: K C⁺ C = K needs every row of K
+//! parallel to C, i.e. τ_1 = V_2/V_1 and τ_2(m_1 + m_2) − m_1 m_2 = τ_1 τ_2. For Table 1 it fails,
+//! so the output feedback does not place the poles at −1/m_i; [`Consistency::Report`] keeps the
+//! design (as the paper did) and reports the poles it does place.
 
 use models::lathe::{eigenvalues, Eigenvalue, Lathe, TOOLS};
 use nalgebra::{Matrix1x2, Matrix2};
@@ -46,6 +50,7 @@ pub enum Consistency {
 pub struct DesignSpec {
     /// m_1, m_2: desired closed-loop time constants, s (poles at −1/m_i).
     pub time_constants: [f64; 2],
+    /// What to do when Theorem 1's consistency condition fails.
     pub consistency: Consistency,
 }
 
@@ -59,16 +64,16 @@ impl Default for DesignSpec {
     }
 }
 
-/// Sudhakara eq (23) evaluated for a gain set: are the zero-feed lines of Sudhakara eq (21) kept out of the positive
-/// force quadrant, which makes the reference forces the only rest point there?
+/// Sudhakara eq (23) evaluated for a gain set: are the zero-feed lines of Sudhakara eq (21) kept
+/// out of the positive force quadrant, which makes the reference forces the only rest point there?
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct GlobalStabilityCheck {
     /// H, m/(rev·W).
     pub power_gains: [f64; TOOLS],
     /// −f_ni/P_max, the least gain Sudhakara eq (23) allows, m/(rev·W).
     pub lower_bounds: [f64; TOOLS],
-    /// Sudhakara eq (21): spindle power at which tool i's commanded feed reaches zero (None for h_i = 0,
-    /// whose feed never changes), W.
+    /// Sudhakara eq (21): spindle power at which tool i's commanded feed reaches zero (None for h_i
+    /// = 0, whose feed never changes), W.
     pub zero_feed_powers: [Option<f64>; TOOLS],
     /// Both gains meet Sudhakara eq (23): a sufficient, not necessary, condition.
     pub satisfied: bool,
@@ -77,6 +82,7 @@ pub struct GlobalStabilityCheck {
 /// The design of Steps 2–3 with the checks of Theorem 1 and Sudhakara eq (23).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct OutputFeedbackDesign {
+    /// The specification the design was made for.
     pub spec: DesignSpec,
     /// K of Sudhakara eq (12), Δf_c = −K ΔF, m/(rev·N).
     pub state_feedback: [[f64; 2]; 2],
@@ -88,29 +94,42 @@ pub struct OutputFeedbackDesign {
     pub state_feedback_poles: [Eigenvalue; 2],
     /// Eigenvalues of A − B H C, Sudhakara eq (10): the poles the output feedback really places.
     pub output_feedback_poles: [Eigenvalue; 2],
+    /// Sudhakara eq (23) evaluated for H.
     pub global_stability: GlobalStabilityCheck,
 }
 
+/// Why the output-feedback design failed.
 #[derive(Debug, Error, Clone, PartialEq)]
 pub enum DesignError {
+    /// A desired closed-loop time constant m_i is zero, negative or not finite.
     #[error(
         "output-feedback design: time constant m_{index} must be finite and > 0 (got {value})"
     )]
-    NonPositiveTimeConstant { index: usize, value: f64 },
+    NonPositiveTimeConstant {
+        /// Which one: i of m_i, from 1.
+        index: usize,
+        /// The value given, s.
+        value: f64,
+    },
+    /// K fails Theorem 1's consistency `K C⁺ C = K` while [`Consistency::Require`] is set.
     #[error(
         "output-feedback design: K of eq (12) fails Theorem 1's consistency K C⁺ C = K (relative \
          residual {residual:.3e}), so H = K C⁺ places the poles at {achieved_poles:?} instead of \
          −1/m_i; set consistency = \"report\" to keep it anyway"
     )]
     Inconsistent {
+        /// ‖K C⁺ C − K‖ / ‖K‖ (Frobenius).
         residual: f64,
+        /// Eigenvalues of A − B H C: the poles H = K C⁺ places instead of −1/m_i, 1/s.
         achieved_poles: [Eigenvalue; 2],
     },
+    /// nalgebra could not compute C⁺; holds its message.
     #[error("output-feedback design: pseudo-inverse of C failed: {0}")]
     PseudoInverse(&'static str),
 }
 
-/// Steps 1–3: K from Sudhakara eq (12), H = K C⁺ from Sudhakara eq (14), Theorem 1 checked, Sudhakara eq (23) evaluated.
+/// Steps 1–3: K from Sudhakara eq (12), H = K C⁺ from Sudhakara eq (14), Theorem 1 checked,
+/// Sudhakara eq (23) evaluated.
 pub fn design(lathe: &Lathe, spec: &DesignSpec) -> Result<OutputFeedbackDesign, DesignError> {
     for (i, m) in spec.time_constants.iter().enumerate() {
         if !(m.is_finite() && *m > 0.0) {
@@ -263,8 +282,8 @@ mod tests {
             let printed_h1 = (v1 + tau1 * v2) / (s1 * speeds_squared);
             assert!(printed_h1 > 0.0 && h1 < 0.0);
         }
-        // Taken literally, Sudhakara eq (15) for m = 1.5 / 1.49 s turns the reference forces into a saddle,
-        // unlike the paper's own Figs 5 and 7, so it cannot be what the paper simulated.
+        // Taken literally, Sudhakara eq (15) for m = 1.5 / 1.49 s turns the reference forces into a
+        // saddle, unlike the paper's own Figs 5 and 7, so it cannot be what the paper simulated.
         let (m1, m2) = (1.5, 1.49);
         let printed = [
             (v1 + tau1 * v2) / (s1 * speeds_squared),
@@ -333,8 +352,8 @@ mod tests {
         assert_close(only.eigenvalues[1].re, -4.432, 1e-3);
         let portrait = portrait(&power_loop);
         assert!(portrait.non_converging_initial_forces().is_empty());
-        // Sudhakara eq (23) is only sufficient: these gains miss it (tool 2's zero-feed line crosses the
-        // quadrant at 4.15 kW) yet the loop still converges from everywhere.
+        // Sudhakara eq (23) is only sufficient: these gains miss it (tool 2's zero-feed line
+        // crosses the quadrant at 4.15 kW) yet the loop still converges from everywhere.
         assert!(!design.global_stability.satisfied);
         assert_close(
             design.global_stability.zero_feed_powers[1].unwrap(),
@@ -442,8 +461,8 @@ mod tests {
         assert_close(widest[1], 1250.0, 0.1);
     }
 
-    /// Sudhakara eq (23): with h_2 raised to −f_n2/P_max tool 2's zero-feed line passes through the origin,
-    /// the saddle and the idle rest point vanish, and every positive start converges.
+    /// Sudhakara eq (23): with h_2 raised to −f_n2/P_max tool 2's zero-feed line passes through the
+    /// origin, the saddle and the idle rest point vanish, and every positive start converges.
     #[test]
     fn gains_meeting_eq23_remove_the_failing_region() {
         let lathe = table1();

@@ -2,11 +2,13 @@
 //! the drives it needs, all acting through joint efforts.
 //!
 //! Three loops, outermost first:
-//! - **Power loop**, Sudhakara eqs (9), (18)–(20): f_ci = sat(f_ni − h_i (P − P_max)), 0 ≤ f_ci ≤ f_max, on
-//!   the measured spindle power P. H comes from [`output_feedback_design::design`] (Sudhakara eqs (12)–(14))
+//! - **Power loop**, Sudhakara eqs (9), (18)–(20): f_ci = sat(f_ni − h_i (P − P_max)), 0 ≤ f_ci ≤
+//!   f_max, on the measured spindle power P. H comes from [`output_feedback_design::design`]
+//!   (Sudhakara eqs (12)–(14))
 //!   for the time constants m_1, m_2, or is given directly.
-//! - **Feed servos**, Sudhakara eq (2): slide i must follow the slide speed v_ci = f_ci · n (n the measured
-//!   spindle speed in rev/s) as f_i/f_ci = 1/(τ_i s + 1). On a slide of mass m driven by a force,
+//! - **Feed servos**, Sudhakara eq (2): slide i must follow the slide speed v_ci = f_ci · n (n the
+//!   measured spindle speed in rev/s) as f_i/f_ci = 1/(τ_i s + 1). On a slide of mass m driven by a
+//!   force,
 //!   m v̇ = u − F_i, the law u = k_p (b v_c − v) + k_i ∫(v_c − v) dt + F_i (the measured cutting
 //!   force fed forward) with k_p = m (1/τ + p), k_i = m p / τ and set-point weight b = 1/(1 + p τ)
 //!   places the poles at −1/τ and −p and cancels −p with the zero of b k_p s + k_i, so that
@@ -15,9 +17,10 @@
 //!   k_p = 2ζω_n J, k_i = ω_n² J) plus the cutting torque P/ω fed forward.
 //!
 //! The start: the slides wait until the spindle is within 1 % of N_s, then approach at the feeds
-//! that make Sudhakara eq (1) give `initial_forces` (Sudhakara eq (6) inverted). Each tool meets the part at that feed
-//! and so starts cutting at its initial force; once both tools cut the power loop closes. The
-//! reduced model of Sudhakara eq (17) started at those forces is what the run is compared with.
+//! that make Sudhakara eq (1) give `initial_forces` (Sudhakara eq (6) inverted). Each tool meets
+//! the part at that feed and so starts cutting at its initial force; once both tools cut the power
+//! loop closes. The reduced model of Sudhakara eq (17) started at those forces is what the run is
+//! compared with.
 
 use super::output_feedback_design::{
     self, Consistency, DesignError, DesignSpec, GlobalStabilityCheck,
@@ -101,6 +104,7 @@ pub struct FeedServoGains {
 /// Everything [`design`] works out before a run.
 #[derive(Debug, Clone, PartialEq)]
 pub struct LatheForceDesign {
+    /// The controller's model of the lathe, built from [`LatheForceParams::lathe`].
     pub lathe: Lathe,
     /// H, m/(rev·W).
     pub power_gains: [f64; TOOLS],
@@ -110,13 +114,16 @@ pub struct LatheForceDesign {
     pub global_stability: GlobalStabilityCheck,
     /// Approach feeds, m/rev.
     pub approach_feeds: [f64; TOOLS],
+    /// Velocity-loop gains of each slide's feed servo.
     pub feed_servos: [FeedServoGains; TOOLS],
-    /// Spindle PI: N·m per rad/s and N·m per rad.
+    /// Spindle PI: k_p = 2ζω_n J, N·m per rad/s.
     pub spindle_kp: f64,
+    /// Spindle PI: k_i = ω_n² J, N·m per rad.
     pub spindle_ki: f64,
 }
 
-/// The lathe, H (Sudhakara eqs (12)–(14) or given), Sudhakara eq (23), the approach feeds and the drive gains.
+/// The lathe, H (Sudhakara eqs (12)–(14) or given), Sudhakara eq (23), the approach feeds and the
+/// drive gains.
 pub fn design(params: &LatheForceParams) -> Result<LatheForceDesign, ControllerError> {
     let lathe = Lathe::new(params.lathe).map_err(|e| {
         let message = e.to_string();
@@ -264,6 +271,8 @@ struct Wiring {
     slide_limits: [f64; TOOLS],
 }
 
+/// The running `output-feedback-force` controller: spindle speed loop, feed servos and, once
+/// both tools cut, the power loop.
 pub struct LatheForce {
     design: LatheForceDesign,
     wiring: Wiring,
@@ -280,6 +289,7 @@ pub struct LatheForce {
 }
 
 impl LatheForce {
+    /// Designs H, the approach feeds and the drive gains; errors name the parameter at fault.
     pub fn new(params: LatheForceParams) -> Result<Self, ControllerError> {
         Ok(Self {
             design: design(&params)?,
@@ -296,6 +306,7 @@ impl LatheForce {
         })
     }
 
+    /// What the controller worked out before the run.
     pub fn design(&self) -> &LatheForceDesign {
         &self.design
     }
@@ -356,7 +367,8 @@ impl LatheForce {
             .clamp(-limit, limit)
     }
 
-    /// Sudhakara eq (20) on the measured power, with an event when a feed reaches or leaves a limit.
+    /// Sudhakara eq (20) on the measured power, with an event when a feed reaches or leaves a
+    /// limit.
     fn power_loop(&mut self, time: f64, power: f64) {
         let lathe = &self.design.lathe;
         let max_feed = lathe.params().max_feed;

@@ -15,6 +15,7 @@ const NAME: &str = "spindle-constant";
 pub struct SpindleConstantParams {
     /// Spindle speed to hold, rad/s.
     pub speed: f64,
+    /// The spindle-speed loop, `[controller.params.speed_loop]`.
     pub speed_loop: SpeedLoopParams,
 }
 
@@ -27,12 +28,14 @@ impl Default for SpindleConstantParams {
     }
 }
 
+/// The running `spindle-constant` controller: the speed loop at one fixed speed.
 pub struct SpindleConstant {
     speed: f64,
     speed_loop: SpeedLoop,
 }
 
 impl SpindleConstant {
+    /// Checks the speed and designs the speed loop; errors name the parameter at fault.
     pub fn new(params: SpindleConstantParams) -> Result<Self, ControllerError> {
         Ok(Self {
             speed: positive(NAME, "speed", params.speed)?,

@@ -7,13 +7,14 @@
 //! delayed part of the cutting force by `B_u·δn`, Kaliński eq (16):
 //! `B_u = Σ_flutes in cut k_d·a_p·(t + μ·n)·(n·u̇(t − τ))·τ/n_s` (N per rad/s; t, n the flute's
 //! tangential and radial directions as in `models::milling`, u̇(t − τ) the tool's velocity when
-//! the flute ahead passed the same angle, n_s the speed). Minimising Kaliński eq (3) over one control period
-//! h, `J = ½·u̇ᵀQ₁Mu̇ + ½·R·δn²` with `Δu̇ = M⁻¹B_u·δn·h`, gives
-//! `δn = −(h·Q₁/R)·B_uᵀu̇` — Kaliński eq (18) with the state-transition integral taken over one period
-//! (Φ ≈ I, the estimate used: the controller cannot measure Φ of the cut it does not model), so
-//! Kaliński eq (18)'s potential-energy term (through T₂) vanishes at this order and the tool's mass M cancels
-//! (Kaliński eq (18) as printed omits the M⁻¹ of Kaliński eq (1)'s input matrix, which cancels the Mᵀ of the kinetic
-//! term). δn is clipped to ±U, Kaliński eq (10). The command n accumulates δn, never below n0.
+//! the flute ahead passed the same angle, n_s the speed). Minimising Kaliński eq (3) over one
+//! control period h, `J = ½·u̇ᵀQ₁Mu̇ + ½·R·δn²` with `Δu̇ = M⁻¹B_u·δn·h`, gives
+//! `δn = −(h·Q₁/R)·B_uᵀu̇` — Kaliński eq (18) with the state-transition integral taken over one
+//! period (Φ ≈ I, the estimate used: the controller cannot measure Φ of the cut it does not model),
+//! so Kaliński eq (18)'s potential-energy term (through T₂) vanishes at this order and the tool's
+//! mass M cancels (Kaliński eq (18) as printed omits the M⁻¹ of Kaliński eq (1)'s input matrix,
+//! which cancels the Mᵀ of the kinetic term). δn is clipped to ±U, Kaliński eq (10). The command n
+//! accumulates δn, never below n0.
 //!
 //! **Measured:** the spindle's angle and speed and the tool tip's velocities (`tool_x.velocity`,
 //! `tool_y.velocity`). The cut's parameters are the controller's model of the process.
@@ -47,7 +48,9 @@ pub struct OptimalLinearParams {
     pub speed_change_limit: f64,
     /// The controller's model of the cut (the keys of the machine's `[process.cut]`).
     pub cut: MillingCutParams,
+    /// The tool tip's x and y joints, whose measured velocities u̇ (m/s) the law reads.
     pub tool_joints: [String; 2],
+    /// The spindle-speed loop, `[controller.params.speed_loop]`.
     pub speed_loop: SpeedLoopParams,
 }
 
@@ -72,10 +75,12 @@ impl Default for OptimalLinearParams {
 pub struct OptimalLinearGains {
     /// Q₁/R, rad²/(N·m·s³).
     pub gain_per_second: f64,
+    /// U of Kaliński eq (10): largest |δn| per control period, rad/s.
     pub limit: f64,
 }
 
-/// Checks the parameters and returns the gain and the limit of Kaliński eq (18) and Kaliński eq (10).
+/// Checks the parameters and returns the gain and the limit of Kaliński eq (18) and
+/// Kaliński eq (10).
 pub fn design(params: &OptimalLinearParams) -> Result<OptimalLinearGains, ControllerError> {
     let p = params;
     check_speeds(NAME, p.nominal_speed, p.maximum_speed)?;
@@ -141,6 +146,8 @@ enum Phase {
     },
 }
 
+/// The running `spindle-optimal-linear` controller: the speed command n raised by δn each period
+/// until n_max, then the linear fall to n0, followed by the speed loop.
 pub struct OptimalLinear {
     params: OptimalLinearParams,
     gains: OptimalLinearGains,
@@ -154,6 +161,7 @@ pub struct OptimalLinear {
 }
 
 impl OptimalLinear {
+    /// Designs the law and the speed loop; errors name the parameter at fault.
     pub fn new(params: OptimalLinearParams) -> Result<Self, ControllerError> {
         Ok(Self {
             gains: design(&params)?,

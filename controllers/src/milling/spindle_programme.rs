@@ -23,6 +23,7 @@ pub struct SpindleProgrammeParams {
     pub rise_time: f64,
     /// Time from n_max back to n0, s.
     pub fall_time: f64,
+    /// The spindle-speed loop, `[controller.params.speed_loop]`.
     pub speed_loop: SpeedLoopParams,
 }
 
@@ -53,6 +54,7 @@ pub fn programme_speed(params: &SpindleProgrammeParams, time: f64) -> (f64, f64)
     }
 }
 
+/// The running `spindle-programme` controller: the speed loop following the triangle.
 pub struct SpindleProgramme {
     params: SpindleProgrammeParams,
     speed_loop: SpeedLoop,
@@ -60,6 +62,7 @@ pub struct SpindleProgramme {
 }
 
 impl SpindleProgramme {
+    /// Checks the programme and designs the speed loop; errors name the parameter at fault.
     pub fn new(params: SpindleProgrammeParams) -> Result<Self, ControllerError> {
         check_speeds(NAME, params.nominal_speed, params.maximum_speed)?;
         positive(NAME, "rise_time", params.rise_time)?;

@@ -113,12 +113,14 @@ pub struct SpeedLoop {
     actuator: usize,
     effort_limit: f64,
     integral: f64,
-    /// Last speed error, rad/s, and torque, N·m (internals).
+    /// Last speed error, rad/s (an internal).
     pub speed_error: f64,
+    /// Last torque command, within the actuator's limit, N·m (an internal).
     pub torque: f64,
 }
 
 impl SpeedLoop {
+    /// Designs the loop from `params`, the `speed_loop` table of `controller`'s parameters.
     pub fn new(controller: &str, params: &SpeedLoopParams) -> Result<Self, ControllerError> {
         Ok(Self {
             gains: design(controller, params)?,
@@ -133,6 +135,8 @@ impl SpeedLoop {
         })
     }
 
+    /// Binds to the plant (the joint's speed and angle, its actuator and effort limit) and clears
+    /// the integral.
     pub fn reset(&mut self, plant: &PlantInterface) -> Result<(), ControllerError> {
         self.speed_signal = plant.signal(&format!("{}.velocity", self.joint))?;
         self.angle_signal = plant.signal(&format!("{}.position", self.joint))?;

@@ -5,14 +5,14 @@
 //! [`crate::platform::model`], L* = `wheel_damping`·I), state x = (q̇, q) as in Kaliński eq (1), so
 //! `A = [[−M*⁻¹L*, 0], [I, 0]]`, `B = [M*⁻¹; 0]`.
 //!
-//! Index (Kaliński eq (20)): `J = ½ eᵀ Q₁ M* e + ½ uᵀ R u` with `e = q̇ − q̄̇ − q̂̇`, q̄̇ the wheel rates of the
-//! path's velocities of H and q̂̇ those of the correcting velocities (Kaliński eq (19)), both by inverse
-//! kinematics at the odometry heading.
+//! Index (Kaliński eq (20)): `J = ½ eᵀ Q₁ M* e + ½ uᵀ R u` with `e = q̇ − q̄̇ − q̂̇`, q̄̇ the wheel
+//! rates of the path's velocities of H and q̂̇ those of the correcting velocities (Kaliński eq
+//! (19)), both by inverse kinematics at the odometry heading.
 //!
-//! Law (Kaliński eq (21)): `u = −(R + Rᵀ)⁻¹ Γᵀ (M*ᵀQ₁ᵀ + Q₁M*) e` with Γ = T₁∫Φ B dτ over the sampling
-//! interval Δt — read here as the effect on q̇ at the end of the interval of a command held over
-//! it, `Γ = ∫₀^Δt e^{−M*⁻¹L* σ} dσ · M*⁻¹` (computed from the exponential of the block matrix
-//! `[[−M*⁻¹L*, M*⁻¹], [0, 0]]·Δt`). Then each torque is clipped to U (Kaliński eq (10)).
+//! Law (Kaliński eq (21)): `u = −(R + Rᵀ)⁻¹ Γᵀ (M*ᵀQ₁ᵀ + Q₁M*) e` with Γ = T₁∫Φ B dτ over the
+//! sampling interval Δt — read here as the effect on q̇ at the end of the interval of a command
+//! held over it, `Γ = ∫₀^Δt e^{−M*⁻¹L* σ} dσ · M*⁻¹` (computed from the exponential of the block
+//! matrix `[[−M*⁻¹L*, M*⁻¹], [0, 0]]·Δt`). Then each torque is clipped to U (Kaliński eq (10)).
 //!
 //! With Q₁ = q₁·I and R = ρ·I the gain is about q₁Δt/ρ·I: a proportional law on the wheel-rate
 //! error, shaped by M* (its coupling term acts when L* ≠ 0 or Q₁ is not scalar).
@@ -32,6 +32,7 @@ const NAME: &str = "energy-optimal";
 #[derive(Debug, Clone, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields, default)]
 pub struct EnergyOptimalParams {
+    /// The controller's model of the platform: wheels, track, point H, mass and inertias.
     pub model: PlatformModel,
     /// Q₁ = diag(q1_left, q1_right): dimensionless weights of the kinetic energy of the error.
     pub q1: [f64; 2],
@@ -138,6 +139,7 @@ pub struct EnergyOptimal {
 }
 
 impl EnergyOptimal {
+    /// Designs the gain of Kaliński eq (21) and the guide; errors name the parameter at fault.
     pub fn new(params: EnergyOptimalParams) -> Result<Self, ControllerError> {
         let design = design(&params)?;
         let guide = Guide::new(params.model, params.k * params.sampling_interval);

@@ -1,11 +1,11 @@
 //! What both platform controllers do before their law: read the wheel encoders, dead-reckon the
 //! pose (the "incremental measurement"), form the correcting velocities of H (Kalinski et al.
-//! 2013, Kaliński eq (19)) and turn desired plus correcting velocities of H into wheel rates by inverse
-//! kinematics.
+//! 2013, Kaliński eq (19)) and turn desired plus correcting velocities of H into wheel rates by
+//! inverse kinematics.
 //!
-//! Kaliński eq (19): `ẋ̂_H = (x̄_H − x_H)/(k·Δt)`, `ẏ̂_H = (ȳ_H − y_H)/(k·Δt)`, with x_H, y_H from odometry
-//! (the controller never sees the true pose). The odometry starts at the path's first point and
-//! heading (the platform is placed there).
+//! Kaliński eq (19): `ẋ̂_H = (x̄_H − x_H)/(k·Δt)`, `ẏ̂_H = (ȳ_H − y_H)/(k·Δt)`, with x_H, y_H from
+//! odometry (the controller never sees the true pose). The odometry starts at the path's first
+//! point and heading (the platform is placed there).
 
 use super::model::{Odometry, PlatformModel};
 use framework::{ControllerError, Measurement, PlantInterface, SignalSpec, Unit};
@@ -44,6 +44,7 @@ pub struct Guide {
 }
 
 impl Guide {
+    /// A guide for the platform `model` with the correction time k·Δt, s, of Kaliński eq (19).
     pub fn new(model: PlatformModel, correction_time: f64) -> Self {
         Self {
             model,
@@ -68,6 +69,8 @@ impl Guide {
         Ok(())
     }
 
+    /// One period: dead-reckons the pose from the wheel angles, forms the correcting velocities
+    /// of H and returns the wheel rates wanted and measured.
     pub fn update(&mut self, measurement: &Measurement, period: f64) -> Guidance {
         let [left, right, x, y, vx, vy, heading] = self.signals.map(|i| measurement.get(i));
         let angles = [left, right];
@@ -98,6 +101,7 @@ impl Guide {
         }
     }
 
+    /// The platform model the guide works with.
     pub fn model(&self) -> &PlatformModel {
         &self.model
     }
@@ -127,6 +131,8 @@ impl Guide {
         ]
     }
 
+    /// The values of [`internals`](Self::internals) after the last update: x_H, y_H (m),
+    /// heading (rad), tracking error (m), correcting velocities of H (m/s).
     pub fn values(&self) -> [f64; 6] {
         let h = self.odometry.point_h(&self.model);
         [
@@ -140,7 +146,8 @@ impl Guide {
     }
 }
 
-/// Torque limit of Kaliński eq (10) for both wheels: the smaller of the controller's and the drive's.
+/// Torque limit of Kaliński eq (10) for both wheels: the smaller of the controller's and the
+/// drive's.
 pub fn wheel_actuators(
     plant: &PlantInterface,
     torque_limit: f64,

@@ -24,7 +24,8 @@
 //! T = ½ m (v² + c²ω²) + ½ I_c ω² + ½ J_w (φ̇_L² + φ̇_R²) = ½ m v² + ½ I_A ω² + ½ J_w (φ̇_L² + φ̇_R²),
 //! ```
 //!
-//! with I_A = I_c + m c² the yaw inertia about A. Substituting the constraints, T = ½ q̇ᵀ M* q̇ with
+//! with I_A = I_c + m c² the yaw inertia about A. Substituting the constraints, T = ½ q̇ᵀ M* q̇
+//! with
 //!
 //! ```text
 //! M*_LL = M*_RR = m r²/4 + I_A r²/(4b²) + J_w,   M*_LR = M*_RL = m r²/4 − I_A r²/(4b²).

@@ -27,18 +27,23 @@ const NAME: &str = "pid";
 #[derive(Debug, Clone, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields, default)]
 pub struct PlatformPidParams {
+    /// The controller's model of the platform: wheels, track, point H, mass and inertias.
     pub model: PlatformModel,
     /// k of Kaliński eq (19).
     pub k: f64,
     /// Δt of Kaliński eq (19), s.
     pub sampling_interval: f64,
-    /// Linear-velocity loop: N per m/s, N per m, N per m/s².
+    /// Linear-velocity loop, proportional gain on v* − v: N per m/s.
     pub kp_v: f64,
+    /// Linear-velocity loop, integral gain: N per m.
     pub ki_v: f64,
+    /// Linear-velocity loop, derivative gain: N per m/s².
     pub kd_v: f64,
-    /// Angular-velocity loop: N·m per rad/s, N·m per rad, N·m per rad/s².
+    /// Angular-velocity loop, proportional gain on ω* − ω: N·m per rad/s.
     pub kp_w: f64,
+    /// Angular-velocity loop, integral gain: N·m per rad.
     pub ki_w: f64,
+    /// Angular-velocity loop, derivative gain: N·m per rad/s².
     pub kd_w: f64,
     /// Time constant of the derivatives' low-pass, s.
     pub derivative_time_constant: f64,
@@ -67,8 +72,11 @@ impl Default for PlatformPidParams {
 /// One loop's gains.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct PidGains {
+    /// Proportional gain: N per m/s on the linear loop, N·m per rad/s on the angular one.
     pub kp: f64,
+    /// Integral gain: N per m, or N·m per rad.
     pub ki: f64,
+    /// Derivative gain: N per m/s², or N·m per rad/s².
     pub kd: f64,
 }
 
@@ -113,6 +121,8 @@ pub struct PlatformPid {
 }
 
 impl PlatformPid {
+    /// Checks the gains and builds the derivative filters and the guide; errors name the
+    /// parameter at fault.
     pub fn new(params: PlatformPidParams) -> Result<Self, ControllerError> {
         let gains = design(&params)?;
         let derivative = FirstOrderFilter::derivative(params.derivative_time_constant)

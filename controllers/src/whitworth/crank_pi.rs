@@ -87,6 +87,7 @@ pub struct CrankPi {
 }
 
 impl CrankPi {
+    /// Designs the PI gains; errors name the parameter at fault.
     pub fn new(params: CrankPiParams) -> Result<Self, ControllerError> {
         let gains = design(&params)?;
         Ok(Self {

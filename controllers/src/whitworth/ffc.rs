@@ -1,14 +1,15 @@
 //! `ffc`: the paper's feedforward-feedback baseline (§6.1): `u = u_d + u_f` on the slider of
 //! Perrusquía eq (10), with the Jacobian compensator, profile and switching criterion of the OSMC.
 //!
-//! **Feedforward (Perrusquía eq (37)).** `u_d = B†·(ż_d − A·z_d) = m̄·ÿ_d`, plus the model's gravity carried to
-//! u ([`SliderModel::gravity_input`]): the paper's slider model Perrusquía eq (36) carries its weight as a
-//! known offset, which Perrusquía eq (37) leaves out; the feedforward here includes it, so that the baseline
-//! gets the model knowledge it is "designed in accordance to".
+//! **Feedforward (Perrusquía eq (37)).** `u_d = B†·(ż_d − A·z_d) = m̄·ÿ_d`, plus the model's
+//! gravity carried to u ([`SliderModel::gravity_input`]): the paper's slider model
+//! Perrusquía eq (36) carries its weight as a known offset, which Perrusquía eq (37) leaves out; the feedforward
+//! here includes it, so that the baseline gets the model knowledge it is "designed in accordance
+//! to".
 //!
-//! **Feedback (Perrusquía eq (38)).** `det(λI − A + BK) = λ² + 2ξω_nλ + ω_n²` with the paper's ω_n² = 1000,
-//! ξ = 1, by Ackermann's formula: `K = m̄·[ω_n², 2ξω_n]`. The paper writes `u_f = −K·e`; with its
-//! `e = z_d − z` that would place the roots of `det(λI − A − BK)`, so the feedback here is
+//! **Feedback (Perrusquía eq (38)).** `det(λI − A + BK) = λ² + 2ξω_nλ + ω_n²` with the paper's ω_n²
+//! = 1000, ξ = 1, by Ackermann's formula: `K = m̄·[ω_n², 2ξω_n]`. The paper writes `u_f = −K·e`;
+//! with its `e = z_d − z` that would place the roots of `det(λI − A − BK)`, so the feedback here is
 //! `u_f = +K·e`, which realises Perrusquía eq (38) itself.
 
 use super::slider::SliderModel;
@@ -27,6 +28,8 @@ pub struct FfcParams {
     pub natural_frequency: f64,
     /// ξ of Perrusquía eq (38).
     pub damping_ratio: f64,
+    /// The task: reference, stroke switching and the linkage's model,
+    /// `[controller.params.task]`.
     pub task: TaskParams,
 }
 
@@ -79,6 +82,7 @@ impl FeedforwardFeedback {
         }
     }
 
+    /// K on `e = [y_d − y, ẏ_d − ẏ]`: N/m, N·s/m.
     pub fn gain(&self) -> [f64; 2] {
         self.gain
     }

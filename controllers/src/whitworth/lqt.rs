@@ -1,6 +1,7 @@
-//! `lqt`: the paper's linear-quadratic tracking baseline (§6.1): the feedforward of Perrusquía eq (37) (with
-//! the model's gravity, as in [`ffc`](super::ffc)) plus the LQR feedback minimising Perrusquía eq (39),
-//! `∫ eᵀQe + R·u_f² dt`, for the slider of Perrusquía eq (10); same compensator, profile and switching.
+//! `lqt`: the paper's linear-quadratic tracking baseline (§6.1): the feedforward of
+//! Perrusquía eq (37) (with the model's gravity, as in [`ffc`](super::ffc)) plus the LQR feedback minimising
+//! Perrusquía eq (39), `∫ eᵀQe + R·u_f² dt`, for the slider of Perrusquía eq (10); same
+//! compensator, profile and switching.
 //!
 //! The paper prints neither Q nor R. Q defaults to the OSMC's `diag(1000, 1)`; R is given
 //! relative to the slider's inertia, `R = r/m̄²` (a weight on the feedback's acceleration
@@ -27,6 +28,8 @@ pub struct LqtParams {
     pub weights: SliderWeights,
     /// r, with `R = r/m̄²` in Perrusquía eq (39).
     pub input_weight: f64,
+    /// The task: reference, stroke switching and the linkage's model,
+    /// `[controller.params.task]`.
     pub task: TaskParams,
 }
 

@@ -5,8 +5,8 @@
 //! 122 (2022) 88–95: the ram is controlled in the task space through crank torque during the
 //! cutting stroke, the crank returned open loop through the singular points.
 //!
-//! - [`slider`]: the ram's dynamics (Perrusquía eqs (7)–(10)) for the twin's linkage and the Jacobian
-//!   compensator (Perrusquía eq (33));
+//! - [`slider`]: the ram's dynamics (Perrusquía eqs (7)–(10)) for the twin's linkage and the
+//!   Jacobian compensator (Perrusquía eq (33));
 //! - [`switching`]: the stroke switching criterion (Fig. 4) and the open-loop return;
 //! - [`task`]: the reference (Algorithm 1 or the scenario's) and the controller frame shared by
 //! - [`osmc`] (the paper's controller), [`ffc`], [`lqt`] and [`smc2`] (its baselines, §6.1);
@@ -21,5 +21,7 @@ pub mod smc2;
 pub mod switching;
 pub mod task;
 
+#[cfg(test)]
+mod task_tests;
 #[cfg(test)]
 mod test_plant;

@@ -1,11 +1,12 @@
 //! `osmc`: the paper's task-space optimal sliding-mode controller (§5) with the Jacobian
 //! compensator (Perrusquía eq (33)) in the cutting stroke and the open-loop return (§3, §6.2).
 //!
-//! **Surface.** `s = C·e` (Perrusquía eq (13)) with the Riccati-optimal hyperplane of Perrusquía eqs (14)–(26) for the slider
-//! of Perrusquía eq (10) with mass m̄ and the cost `∫ eᵀQe` (Perrusquía eq (20)), `Q = diag(q_pos, q_vel)`
-//! ([`crate::design::slider_hyperplane`]): `C = m̄·[√(q_pos/q_vel), 1]`, so on `s = 0` the error
-//! decays as `ė = −√(q_pos/q_vel)·e`. The paper prints no Q; the default ratio 1000 puts the
-//! sliding pole at −31.6 rad/s, the bandwidth of the paper's FFC baseline (Perrusquía eq (38), ω_n² = 1000).
+//! **Surface.** `s = C·e` (Perrusquía eq (13)) with the Riccati-optimal hyperplane of
+//! Perrusquía eqs (14)–(26) for the slider of Perrusquía eq (10) with mass m̄ and the cost `∫ eᵀQe`
+//! (Perrusquía eq (20)), `Q = diag(q_pos, q_vel)` ([`crate::design::slider_hyperplane`]): `C =
+//! m̄·[√(q_pos/q_vel), 1]`, so on `s = 0` the error decays as `ė = −√(q_pos/q_vel)·e`. The paper
+//! prints no Q; the default ratio 1000 puts the sliding pole at −31.6 rad/s, the bandwidth of the
+//! paper's FFC baseline (Perrusquía eq (38), ω_n² = 1000).
 //!
 //! **Law (Perrusquía eqs (27)–(30)).** `σ = s(e) − s(e(t₀))·exp(−λ(t − t₀))`, `k̇_x = sign(σ)`,
 //! `s_x = σ + k₂·k_x`, `u = k₁·s_x`. t₀ is the start of each cutting stroke (or of the run, when
@@ -19,10 +20,10 @@
 //! workpiece) ten times faster than the sliding motion while `k₁·T = 0.4` keeps the 1 ms sampled
 //! loop well damped; k₂ = 15 N lets the integral term move u by `k₁·k₂ = 6 kN/s`, enough to take
 //! up the 400 N contact force within about 70 ms. λ = 20 s⁻¹ fades the start-up offset of σ
-//! over the first blend (t_a = 0.133 s). Theorem 1 (Perrusquía eq (32), A.6) bounds |s_x| ultimately by
-//! `η̄/k₁`, η̄ bounding the unknown terms in N: with some 400 N of them here, 1 N·s, i.e. at most
-//! `1/m̄ ≈ 0.05 m/s` on the surface until the integral term takes the steady part up. (The
-//! paper's own check, k₁ ≥ ‖ρ_y·F_y + m₅·g‖, compares 1/s with N and is not used.)
+//! over the first blend (t_a = 0.133 s). Theorem 1 (Perrusquía eq (32), A.6) bounds |s_x|
+//! ultimately by `η̄/k₁`, η̄ bounding the unknown terms in N: with some 400 N of them here, 1 N·s,
+//! i.e. at most `1/m̄ ≈ 0.05 m/s` on the surface until the integral term takes the steady part up.
+//! (The paper's own check, k₁ ≥ ‖ρ_y·F_y + m₅·g‖, compares 1/s with N and is not used.)
 
 use super::slider::SliderModel;
 use super::task::{LawInput, TaskController, TaskDesign, TaskLaw, TaskParams};
@@ -44,6 +45,8 @@ pub struct OsmcParams {
     pub reaching_rate: f64,
     /// Q of Perrusquía eq (20).
     pub weights: SliderWeights,
+    /// The task: reference, stroke switching and the linkage's model,
+    /// `[controller.params.task]`.
     pub task: TaskParams,
 }
 
@@ -64,8 +67,11 @@ impl Default for OsmcParams {
 pub struct SecondOrderGains {
     /// `C` of Perrusquía eq (13): kg, kg/s.
     pub surface: [f64; 2],
+    /// k₁ of Perrusquía eq (27), 1/s.
     pub k1: f64,
+    /// k₂ of Perrusquía eq (30), N.
     pub k2: f64,
+    /// λ of Perrusquía eq (29), 1/s.
     pub reaching_rate: f64,
 }
 
@@ -142,6 +148,7 @@ fn sign(x: f64) -> f64 {
 }
 
 impl SecondOrderSliding {
+    /// The law at rest, with `label` for its mode events.
     pub fn new(label: &'static str, gains: SecondOrderGains) -> Self {
         Self {
             label,
@@ -155,6 +162,7 @@ impl SecondOrderSliding {
         }
     }
 
+    /// The surface and the law's gains.
     pub fn gains(&self) -> &SecondOrderGains {
         &self.gains
     }

@@ -1,25 +1,26 @@
-//! The ram ("slider") as the task-space controllers see it: the paper's slider dynamics, Perrusquía eqs (7)–(10),
-//! for the twin's linkage, and the Jacobian compensator of Perrusquía eq (33).
+//! The ram ("slider") as the task-space controllers see it: the paper's slider dynamics,
+//! Perrusquía eqs (7)–(10), for the twin's linkage, and the Jacobian compensator of Perrusquía eq (33).
 //!
-//! **Effective mass (Perrusquía eqs (7)–(9)).** The paper writes `m·ẍ + G = (Σρ_i²)⁻¹·ρ_x·(τ − ρ_x·F_x)`. The sum
-//! `Σρ_i²` is the generalised inertia `ρᵀ·M′·ρ` of its extended model taken with a unit metric
-//! (every extended coordinate weighing the same); with the twin's link masses it is
+//! **Effective mass (Perrusquía eqs (7)–(9)).** The paper writes `m·ẍ + G = (Σρ_i²)⁻¹·ρ_x·(τ −
+//! ρ_x·F_x)`. The sum `Σρ_i²` is the generalised inertia `ρᵀ·M′·ρ` of its extended model taken with
+//! a unit metric (every extended coordinate weighing the same); with the twin's link masses it is
 //! `M(q) = Σ m_i|∂c_i/∂q|² + I_i(∂θ_i/∂q)²` ([`models::whitworth::dynamics`]). Differentiating
 //! `y = y(q)` twice and using `M·q̈ + ½M′q̇² + ∂V/∂q = τ + ρ_y·f_y` gives, exactly,
 //! `ÿ = (ρ_y/M)·τ + (ρ_y²/M)·f_y − (ρ_y/M)·∂V/∂q + (ρ_y′ − ρ_y·M′/2M)·q̇²`.
-//! With the virtual-work map `τ = ρ_y·u` (Perrusquía eq (11)) this is Perrusquía eq (7) with the ram's *effective* mass
-//! `m(q) = M(q)/ρ_y²` (the whole linkage reflected to the ram, infinite at the stroke ends) and
-//! gravity `G(q) = (∂V/∂q)/ρ_y`. The paper's own twin-sized instance, Perrusquía eq (34) with m₅ = 0.45 g, keeps
-//! only the ram's mass; that is not the twin's physics and is not used.
+//! With the virtual-work map `τ = ρ_y·u` (Perrusquía eq (11)) this is Perrusquía eq (7) with the
+//! ram's *effective* mass `m(q) = M(q)/ρ_y²` (the whole linkage reflected to the ram, infinite at
+//! the stroke ends) and gravity `G(q) = (∂V/∂q)/ρ_y`. The paper's own twin-sized instance,
+//! Perrusquía eq (34) with m₅ = 0.45 g, keeps only the ram's mass; that is not the twin's physics
+//! and is not used.
 //!
 //! **Compensated input gain.** The controllers apply `τ = ρ̂·u` with the compensator
 //! `ρ̂ = K_ρ·sign(ẋ/q̇)` (Perrusquía eq (33)), not `ρ_y·u`, so u reaches the ram with the gain
-//! `b(q) = ρ_y·ρ̂/M(q) = K_ρ·|ρ_y|/M(q)` (Perrusquía eq (8)'s b): the compensator keeps the sign right through
-//! the singular points, where the gain falls to zero instead of blowing up. `K_ρ = max|ρ_y|` over
-//! the cutting stroke (the paper's choice). The linear designs (Perrusquía eq (10)) take `b = 1/m̄` with the
-//! nominal mass `m̄ = 1/max b(q)` over the cutting stroke: the lightest the ram ever looks through
-//! the compensator, reached near the largest Jacobian. Everywhere else `b(q) ≤ 1/m̄`, so a
-//! high-gain design for m̄ only gets slower, never faster, on the real linkage.
+//! `b(q) = ρ_y·ρ̂/M(q) = K_ρ·|ρ_y|/M(q)` (Perrusquía eq (8)'s b): the compensator keeps the sign
+//! right through the singular points, where the gain falls to zero instead of blowing up. `K_ρ =
+//! max|ρ_y|` over the cutting stroke (the paper's choice). The linear designs (Perrusquía eq (10))
+//! take `b = 1/m̄` with the nominal mass `m̄ = 1/max b(q)` over the cutting stroke: the lightest
+//! the ram ever looks through the compensator, reached near the largest Jacobian. Everywhere else
+//! `b(q) ≤ 1/m̄`, so a high-gain design for m̄ only gets slower, never faster, on the real linkage.
 //!
 //! **Sign of ẋ/q̇.** `sign(ẏ/q̇) = sign(ρ_y(q))`, taken from the model at the measured crank angle
 //! (the paper's "off-line" sign), so it is defined when the crank stands still.
@@ -69,10 +70,12 @@ impl SliderModel {
         })
     }
 
+    /// The linkage's dynamics: generalised inertia M(q), gravity and energy.
     pub fn dynamics(&self) -> &Dynamics {
         &self.dynamics
     }
 
+    /// The linkage's dimensions.
     pub fn geometry(&self) -> &Geometry {
         self.dynamics.geometry()
     }
@@ -97,13 +100,15 @@ impl SliderModel {
         self.nominal_angle
     }
 
-    /// `m(q) = M(q)/ρ_y(q)²`, kg: Perrusquía eq (7)'s slider mass for the map `τ = ρ_y·u` (Perrusquía eq (11)).
+    /// `m(q) = M(q)/ρ_y(q)²`, kg: Perrusquía eq (7)'s slider mass for the map `τ = ρ_y·u`
+    /// (Perrusquía eq (11)).
     pub fn effective_mass(&self, q: f64) -> f64 {
         let rho = self.geometry().ram_jacobian(q);
         self.dynamics.inertia(q) / (rho * rho)
     }
 
-    /// `ρ̂ = K_ρ·sign(ẏ/q̇)` (Perrusquía eq (33)), m/rad; the cutting stroke's sign exactly at a singular point.
+    /// `ρ̂ = K_ρ·sign(ẏ/q̇)` (Perrusquía eq (33)), m/rad; the cutting stroke's sign exactly at a
+    /// singular point.
     pub fn compensator(&self, q: f64) -> f64 {
         let rho = self.geometry().ram_jacobian(q);
         if rho == 0.0 {

@@ -1,13 +1,13 @@
-//! `smc2`: the paper's second-order SMC baseline (§6.1): the law of Perrusquía eqs (27)–(30), exactly as in
-//! [`osmc`](super::osmc), on a hand-set hyperplane `s = m̄·(ė + c·e)` instead of the Riccati-optimal
-//! one, with the same compensator, profile and switching criterion.
+//! `smc2`: the paper's second-order SMC baseline (§6.1): the law of Perrusquía eqs (27)–(30),
+//! exactly as in [`osmc`](super::osmc), on a hand-set hyperplane `s = m̄·(ė + c·e)` instead of the
+//! Riccati-optimal one, with the same compensator, profile and switching criterion.
 //!
-//! The paper does not print the baseline's surface. For the slider of Perrusquía eq (10) every hyperplane with
-//! `C·B = 1` has the form `m̄·[c, 1]`, and the optimal one of Perrusquía eqs (14)–(26) is `c = √(q_pos/q_vel)`: an
-//! SMC2 with slope c *is* the OSMC for `Q = diag(c², 1)`. What the comparison can show is therefore
-//! what the Riccati design's choice of slope buys over a hand-set one; the default `c = 10 s⁻¹`
-//! stands for a conventional hand tuning (a sliding motion about three times slower than the
-//! OSMC's −31.6 rad/s). Gains k₁, k₂, λ default to the OSMC's.
+//! The paper does not print the baseline's surface. For the slider of Perrusquía eq (10) every
+//! hyperplane with `C·B = 1` has the form `m̄·[c, 1]`, and the optimal one of
+//! Perrusquía eqs (14)–(26) is `c = √(q_pos/q_vel)`: an SMC2 with slope c *is* the OSMC for `Q = diag(c², 1)`.
+//! What the comparison can show is therefore what the Riccati design's choice of slope buys over a
+//! hand-set one; the default `c = 10 s⁻¹` stands for a conventional hand tuning (a sliding motion
+//! about three times slower than the OSMC's −31.6 rad/s). Gains k₁, k₂, λ default to the OSMC's.
 
 use super::osmc::{second_order_gains, SecondOrderGains, SecondOrderSliding};
 use super::slider::SliderModel;
@@ -29,6 +29,8 @@ pub struct Smc2Params {
     pub k2: f64,
     /// λ of Perrusquía eq (29), 1/s.
     pub reaching_rate: f64,
+    /// The task: reference, stroke switching and the linkage's model,
+    /// `[controller.params.task]`.
     pub task: TaskParams,
 }
 

@@ -3,11 +3,11 @@
 //! **Stroke recognition.** The ram moves one way in the cutting stroke and the other way in the
 //! return stroke; the cutting direction is known off-line (the twin's crank turns clockwise, q
 //! falling, and cuts on the way down, ẏ < 0). Comparing the sign of the measured ram velocity
-//! with it tells the strokes apart (Perrusquía eq (1) holds, task-space control is allowed, exactly while they
-//! agree). Here the comparison is made with a small dead band and, to keep sensor ripple at the
-//! stroke ends from toggling the mode, the ram must also be on the matching half of the stroke:
-//! the cutting stroke is left only past mid-stroke on the cutting side, the return stroke only
-//! past mid-stroke on the return side. While the ram stands still (at the start of a run) the
+//! with it tells the strokes apart (Perrusquía eq (1) holds, task-space control is allowed, exactly
+//! while they agree). Here the comparison is made with a small dead band and, to keep sensor ripple
+//! at the stroke ends from toggling the mode, the ram must also be on the matching half of the
+//! stroke: the cutting stroke is left only past mid-stroke on the cutting side, the return stroke
+//! only past mid-stroke on the return side. While the ram stands still (at the start of a run) the
 //! stroke is read from the crank angle: where `ρ_y` has the cutting sign, the cut is under way.
 //!
 //! **Return torques.** The paper returns the crank open loop with +8.65 N·m and, from mid-stroke,
@@ -158,6 +158,8 @@ pub struct StrokeSwitch {
 }
 
 impl StrokeSwitch {
+    /// The criterion for `slider`'s stroke, with the return's part 2 from `mid_stroke` (ram
+    /// height, m); no mode until the first update.
     pub fn new(slider: &SliderModel, mid_stroke: f64) -> Self {
         let stroke = slider.stroke();
         Self {
@@ -172,6 +174,7 @@ impl StrokeSwitch {
         self.mode = None;
     }
 
+    /// The current mode, or `None` before the first update.
     pub fn mode(&self) -> Option<Mode> {
         self.mode
     }

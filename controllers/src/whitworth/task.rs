@@ -1,16 +1,17 @@
 //! What the four Whitworth task-space controllers share: the task parameters, the reference, the
 //! plant binding, the switching criterion and the Jacobian compensator. Each controller only
 //! supplies its law `u = f(e, …)` on the slider (a [`TaskLaw`]); [`TaskController`] turns it into
-//! crank torque `τ = ρ̂·u` (Perrusquía eqs (11), (33)) in the cutting stroke and applies the open-loop return.
+//! crank torque `τ = ρ̂·u` (Perrusquía eqs (11), (33)) in the cutting stroke and applies the
+//! open-loop return.
 //!
-//! **Which reference.** `reference = "profile"` builds the Algorithm 1 profile (Perrusquía eqs (2)–(5)) from
-//! the linkage's stroke ends, `workpiece_length` and `cutting_velocity`, restarts it at each
-//! cutting stroke and uses the switching criterion (the cutting task). `reference = "scenario"`
-//! tracks the scenario's `reference`, `reference_rate`, `reference_acceleration` signals in closed
-//! loop all the time, without stroke switching (the tracking task: the reference stays inside the
-//! stroke). `reference = "auto"` (the default) picks "scenario" when the plant measures a
-//! `reference` signal and "profile" otherwise, so a scenario's `[reference]` table decides the
-//! task even when `--controller` resets the parameters to their defaults.
+//! **Which reference.** `reference = "profile"` builds the Algorithm 1 profile (Perrusquía eqs
+//! (2)–(5)) from the linkage's stroke ends, `workpiece_length` and `cutting_velocity`, restarts it
+//! at each cutting stroke and uses the switching criterion (the cutting task). `reference =
+//! "scenario"` tracks the scenario's `reference`, `reference_rate`, `reference_acceleration`
+//! signals in closed loop all the time, without stroke switching (the tracking task: the reference
+//! stays inside the stroke). `reference = "auto"` (the default) picks "scenario" when the plant
+//! measures a `reference` signal and "profile" otherwise, so a scenario's `[reference]` table
+//! decides the task even when `--controller` resets the parameters to their defaults.
 //!
 //! **Signals.** Reads `crank_angle` (for ρ̂ and the model's gravity), `ram_position`,
 //! `ram_velocity` and, when tracking, the reference; drives the `joint` actuator (`crank`).
@@ -48,6 +49,7 @@ pub enum ReferenceChoice {
 pub struct TaskParams {
     /// The actuated crank joint.
     pub joint: String,
+    /// Where the reference comes from: Algorithm 1's profile, the scenario's, or `auto`.
     pub reference: ReferenceChoice,
     /// `L_d`, m (Algorithm 1).
     pub workpiece_length: f64,
@@ -82,9 +84,11 @@ impl Default for TaskParams {
 /// The model-based pieces every Whitworth controller designs from its [`TaskParams`].
 #[derive(Debug, Clone, PartialEq)]
 pub struct TaskDesign {
+    /// The slider model of the linkage, with `K_ρ` and the nominal mass m̄.
     pub slider: SliderModel,
     /// Algorithm 1 over the cutting stroke (top to bottom).
     pub profile: VelocityProfile,
+    /// The open-loop return stroke: its two torques and where part 2 starts.
     pub return_plan: ReturnPlan,
 }
 
@@ -238,6 +242,7 @@ pub struct LawInput {
     pub period: f64,
     /// `e = z_d − z = [y_d − y, ẏ_d − ẏ]` (Perrusquía eq (12)), m and m/s.
     pub error: [f64; 2],
+    /// The reference `y_d`, `ẏ_d`, `ÿ_d` at this period: m, m/s, m/s².
     pub reference: ProfileSample,
     /// The model's gravity carried to u ([`SliderModel::gravity_input`]), N.
     pub gravity: f64,
@@ -255,7 +260,10 @@ pub trait TaskLaw: Send {
     fn restart(&mut self, time: f64, error: [f64; 2]);
     /// The slider force u, N.
     fn force(&mut self, input: &LawInput) -> f64;
+    /// The law's own recorded signals, after the shared ones of the task controller.
     fn internals(&self) -> Vec<SignalSpec>;
+    /// The law's signals after the last [`force`](Self::force), in the order of
+    /// [`internals`](Self::internals).
     fn internal_values(&self, values: &mut [f64]);
 }
 
@@ -315,6 +323,7 @@ fn shared_internals() -> Vec<SignalSpec> {
 }
 
 impl<L: TaskLaw> TaskController<L> {
+    /// The controller called `name` running `law` on the task `params`, designed as `design`.
     pub fn new(name: &'static str, params: TaskParams, design: TaskDesign, law: L) -> Self {
         let switch = StrokeSwitch::new(&design.slider, design.return_plan.mid_stroke);
         Self {
@@ -341,10 +350,12 @@ impl<L: TaskLaw> TaskController<L> {
         }
     }
 
+    /// The slider model, profile and return plan the controller was built with.
     pub fn design(&self) -> &TaskDesign {
         &self.design
     }
 
+    /// The task-space law it runs in closed loop.
     pub fn law(&self) -> &L {
         &self.law
     }
@@ -515,167 +526,5 @@ impl<L: TaskLaw> Controller for TaskController<L> {
 
     fn drain_events(&mut self, events: &mut Vec<Event>) {
         events.append(&mut self.events);
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::super::osmc::{build, OsmcParams};
-    use super::super::test_plant::Plant;
-    use super::*;
-    use models::reference::Reference;
-
-    fn osmc(task: TaskParams) -> Result<super::super::osmc::Osmc, ControllerError> {
-        build(OsmcParams {
-            task,
-            ..Default::default()
-        })
-    }
-
-    #[test]
-    fn task_errors_name_the_task_entry() {
-        let task = |change: fn(&mut TaskParams)| {
-            let mut task = TaskParams::default();
-            change(&mut task);
-            task
-        };
-        let huge = "-1e308";
-        let cases = [
-            (
-                task(|t| t.workpiece_length = 0.5),
-                "task.workpiece_length",
-                "0.5",
-                "must be shorter than the stroke",
-            ),
-            (
-                task(|t| t.cutting_velocity = -1e308),
-                "task.cutting_velocity",
-                huge,
-                "must leave a usable blend (t_a",
-            ),
-            (
-                task(|t| t.cutting_velocity = 1.25),
-                "task.cutting_velocity",
-                "1.25",
-                "must point along the cutting stroke",
-            ),
-            (
-                task(|t| t.return_drive_torque = 0.0),
-                "task.return_drive_torque",
-                "0",
-                "must be > 0",
-            ),
-            (
-                task(|t| t.gravity = f64::INFINITY),
-                "task.gravity",
-                "inf",
-                "must be a finite number",
-            ),
-            (
-                task(|t| t.masses.crank.mass = -1.0),
-                "task.masses.crank.mass",
-                "-1",
-                "must be finite and ≥ 0",
-            ),
-            (
-                task(|t| t.geometry.coupler_length = 0.1),
-                "task.geometry.coupler_length",
-                "0.1",
-                "must be > ",
-            ),
-        ];
-        for (task, key, value, reason) in cases {
-            let err = osmc(task).err().unwrap();
-            assert!(
-                matches!(
-                    &err,
-                    ControllerError::BadParameter { controller, key: k, value: Some(v), reason: r }
-                        if controller == "osmc" && k == key && v == value && r.starts_with(reason)
-                ),
-                "{err}"
-            );
-        }
-    }
-
-    #[test]
-    fn return_torque_beyond_the_actuator_is_an_error_at_reset() {
-        let mut controller = osmc(TaskParams {
-            return_drive_torque: 400.0,
-            ..Default::default()
-        })
-        .unwrap();
-        let err = controller.reset(&Plant::twin().interface()).unwrap_err();
-        assert!(
-            matches!(&err, ControllerError::BadParameter { key, value: Some(value), reason, .. }
-                if key == "task.return_drive_torque" && value == "400"
-                    && reason.contains("return stroke part 1")),
-            "{err}"
-        );
-    }
-
-    #[test]
-    fn reference_choice_follows_the_plant() {
-        let mut tracking = Plant::twin();
-        tracking.reference = Some(Reference::Constant { value: -0.1 });
-        let mut controller = osmc(TaskParams::default()).unwrap();
-        controller.reset(&tracking.interface()).unwrap();
-        tracking.run(&mut controller, 0.002, 1e-3);
-        let mut events = Vec::new();
-        controller.drain_events(&mut events);
-        assert_eq!(
-            events,
-            [Event::mode(
-                "tracking",
-                "tracking the scenario reference: OSMC"
-            )]
-        );
-
-        let mut controller = osmc(TaskParams::default()).unwrap();
-        controller.reset(&Plant::twin().interface()).unwrap();
-        Plant::twin().run(&mut controller, 0.002, 1e-3);
-        controller.drain_events(&mut events);
-        assert_eq!(
-            events.last().map(|e| (e.mode_entered(), e.text.as_str())),
-            Some((Some("cutting_stroke"), "cutting stroke: OSMC"))
-        );
-
-        let mut controller = osmc(TaskParams {
-            reference: ReferenceChoice::Scenario,
-            ..Default::default()
-        })
-        .unwrap();
-        let err = controller.reset(&Plant::twin().interface()).unwrap_err();
-        assert!(
-            matches!(err, ControllerError::MissingSignal { ref signal, .. } if signal == "reference"),
-            "{err}"
-        );
-    }
-
-    #[test]
-    fn internals_cover_the_shared_signals_and_the_law() {
-        let mut controller = osmc(TaskParams::default()).unwrap();
-        controller.reset(&Plant::twin().interface()).unwrap();
-        let names = framework::signal_names(&controller.internals());
-        for name in [
-            "mode",
-            "reference",
-            "u",
-            "rho_hat",
-            "s",
-            "sigma",
-            "k_x",
-            "s_x",
-        ] {
-            assert!(
-                names.iter().any(|n| n == name),
-                "{name} missing from {names:?}"
-            );
-        }
-        Plant::twin().run(&mut controller, 0.01, 1e-3);
-        let mut values = vec![0.0; names.len()];
-        controller.internal_values(&mut values);
-        assert_eq!(values[0], 1.0, "cutting");
-        let rho_hat = values[names.iter().position(|n| n == "rho_hat").unwrap()];
-        assert_eq!(rho_hat, controller.design().slider.jacobian_gain());
     }
 }

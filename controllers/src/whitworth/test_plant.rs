@@ -17,7 +17,8 @@ pub struct Contact {
 }
 
 impl Contact {
-    /// The paper's 400 N (Perrusquía eq (40)) over the twin's workpiece: Algorithm 1's y_a, y_b for L_d = 0.3 m.
+    /// The paper's 400 N (Perrusquía eq (40)) over the twin's workpiece: Algorithm 1's y_a, y_b for
+    /// L_d = 0.3 m.
     pub const WORKPIECE: Contact = Contact {
         force: 400.0,
         y_a: -0.02907,

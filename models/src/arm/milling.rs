@@ -4,18 +4,18 @@
 //!
 //! # Cutting force
 //!
-//! The mechanistic form of Rubio, Ibeas & Luo (Rubio eqs (2)–(4)) (see [`crate::feed_axis::micromilling`] for the
-//! micro-scale version with run-out), at machining-robot scale: per tooth `F_t = K_t·h·a`,
-//! `F_n = K_n·h·a` (Rubio eqs (2)–(3), straight flutes, `a` the axial depth — here the part's thickness
-//! across the arm's plane), projected with Rubio eq (4) on the feed direction x and its normal y,
-//! `F_x = −F_t cos φ − F_n sin φ`, `F_y = F_t sin φ − F_n cos φ` (φ from +y, in the cutter's sense
-//! of rotation). The chip is `h = f_z·sin φ` with the feed per tooth `f_z = V/(N·n)` — path speed
-//! over teeth times spindle revolutions per second — and no run-out: a robot-held macro cutter
-//! has run-out far below its 0.1 mm chips.
+//! The mechanistic form of Rubio, Ibeas & Luo (Rubio eqs (2)–(4)) (see
+//! [`crate::feed_axis::micromilling`] for the micro-scale version with run-out), at machining-robot
+//! scale: per tooth `F_t = K_t·h·a`, `F_n = K_n·h·a` (Rubio eqs (2)–(3), straight flutes, `a` the
+//! axial depth — here the part's thickness across the arm's plane), projected with Rubio eq (4) on
+//! the feed direction x and its normal y, `F_x = −F_t cos φ − F_n sin φ`, `F_y = F_t sin φ − F_n
+//! cos φ` (φ from +y, in the cutter's sense of rotation). The chip is `h = f_z·sin φ` with the feed
+//! per tooth `f_z = V/(N·n)` — path speed over teeth times spindle revolutions per second — and no
+//! run-out: a robot-held macro cutter has run-out far below its 0.1 mm chips.
 //!
 //! The twin steps at 1 ms, slower than the teeth pass (200 Hz at 6,000 rpm with two teeth), so it
-//! applies the force **averaged over a tooth period**: `N/2π` times the integral of Rubio eq (4) over
-//! the engaged arc. With radial depth `a_e` on a cutter of radius `R`, the arc spans
+//! applies the force **averaged over a tooth period**: `N/2π` times the integral of Rubio eq (4)
+//! over the engaged arc. With radial depth `a_e` on a cutter of radius `R`, the arc spans
 //! `φ_e = acos(1 − a_e/R)`: `[0, φ_e]` in up (conventional) milling, `[π − φ_e, π]` in down
 //! (climb) milling. With `S₁ = [sin²φ/2]` and `S₂ = [φ/2 − sin 2φ/4]` over the arc:
 //! `F̄_x = −(N·a·f_z/2π)(K_t·S₁ + K_n·S₂)`, `F̄_y = (N·a·f_z/2π)(K_t·S₂ − K_n·S₁)`, and the
@@ -63,12 +63,16 @@ impl Default for CutterParams {
     }
 }
 
+/// Why a cutter or a stock profile is rejected.
 #[derive(Debug, Error, Clone, PartialEq)]
 pub enum MillingError {
+    /// A [`CutterParams`] dimension or coefficient is zero, negative or not finite; holds its name.
     #[error("milling: {0} must be finite and > 0")]
     NotPositive(&'static str),
+    /// The cutter has no teeth.
     #[error("milling: teeth must be at least 1")]
     NoTeeth,
+    /// The [`Stock`] profile is unusable; holds what is wrong and where.
     #[error("stock: {0}")]
     BadStock(String),
 }
@@ -76,7 +80,9 @@ pub enum MillingError {
 /// Whether the teeth enter the stock with a thin chip (up) or a thick one (down).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum MillingMode {
+    /// Up (conventional) milling: the chip grows from zero at entry to its thickest at exit.
     Up,
+    /// Down (climb) milling: the chip is thickest at entry and thins to zero at exit.
     Down,
 }
 
@@ -101,6 +107,7 @@ pub struct Cutter {
 const SLOWEST_SPINDLE: f64 = 1.0;
 
 impl Cutter {
+    /// Checks the dimensions and coefficients are positive and the cutter has teeth.
     pub fn new(params: CutterParams) -> Result<Self, MillingError> {
         for (name, value) in [
             ("diameter", params.diameter),
@@ -118,10 +125,12 @@ impl Cutter {
         Ok(Self { params })
     }
 
+    /// The parameters the cutter was built from.
     pub fn params(&self) -> &CutterParams {
         &self.params
     }
 
+    /// Cutter radius R, m.
     pub fn radius(&self) -> f64 {
         self.params.diameter / 2.0
     }
@@ -197,6 +206,8 @@ impl Default for Stock {
 }
 
 impl Stock {
+    /// Checks there are at least two points, path lengths increase and every depth lies within
+    /// 0…`diameter` (the cutter's, m).
     pub fn validate(&self, diameter: f64) -> Result<(), MillingError> {
         let bad = |reason: String| MillingError::BadStock(reason);
         if self.depth.len() < 2 {

@@ -2,17 +2,18 @@
 //! contour of lines and arcs in the arm's plane, cut into control points an equal path length
 //! `L` apart, turned into joint coordinates by the arm's inverse kinematics, and interpolated per
 //! segment by a cubic in the path length (Ilyukhin eq (2)) whose coefficients come from the
-//! neighbouring control points (Ilyukhin eqs (3)–(4)). The path length `l` is integrated from the path speed;
-//! a segment is left when `l` reaches `L` ([`JointPath::advance`]).
+//! neighbouring control points (Ilyukhin eqs (3)–(4)). The path length `l` is integrated from the
+//! path speed; a segment is left when `l` reaches `L` ([`JointPath::advance`]).
 //!
 //! **Coefficients.** With the end derivatives `q'_k = (q_{k+1} − q_{k−1})/2L` and
 //! `q'_{k+1} = (q_{k+2} − q_k)/2L` (their choice), the cubic through both points with both
 //! derivatives has `d = q_k`, `c = Δ1/2L`, `b = (6Δ0 − 2Δ1 − Δ2)/L²` and
 //! `a = (−12Δ0 + 3Δ1 + 3Δ2)/L³`, with `Δ0 = q_{k+1} − q_k`, `Δ1 = q_{k+1} − q_{k−1}`,
-//! `Δ2 = q_{k+2} − q_k`. The printed Ilyukhin eq (4) has `−3Δ2` in `a`, and Ilyukhin eq (3) `−2(q'_{k+1} − q'_k)`
-//! where the end-point condition needs `−2(q_{k+1} − q_k)`; both are misprints (with them the
-//! cubic misses `q_{k+1}`), and the twin uses the Hermite form, which the unit tests check. At
-//! the contour's ends the missing neighbour is extrapolated linearly (`q_{−1} = 2q_0 − q_1`).
+//! `Δ2 = q_{k+2} − q_k`. The printed Ilyukhin eq (4) has `−3Δ2` in `a`, and Ilyukhin eq (3)
+//! `−2(q'_{k+1} − q'_k)` where the end-point condition needs `−2(q_{k+1} − q_k)`; both are
+//! misprints (with them the cubic misses `q_{k+1}`), and the twin uses the Hermite form, which the
+//! unit tests check. At the contour's ends the missing neighbour is extrapolated linearly (`q_{−1}
+//! = 2q_0 − q_1`).
 //!
 //! # Arm
 //!
@@ -59,24 +60,37 @@ pub enum Elbow {
     /// Counter-clockwise side (above the line when the wrist is to the right of the shoulder).
     #[default]
     Up,
+    /// Clockwise side (below the line when the wrist is to the right of the shoulder).
     Down,
 }
 
+/// Why an arm, a contour or its joint-space program is rejected.
 #[derive(Debug, Error, Clone, PartialEq)]
 pub enum PathError {
+    /// A contour point cannot be reached with the hand at the tool angle: the wrist would lie
+    /// outside the annulus the upper arm and forearm sweep.
     #[error(
         "contour point ({x:.4}, {y:.4}) m is out of the arm's reach: the wrist would be {distance:.4} m \
          from the shoulder, the arm reaches {inner:.4}…{outer:.4} m"
     )]
     OutOfReach {
+        /// x of the contour point, m.
         x: f64,
+        /// y of the contour point, m.
         y: f64,
+        /// Shoulder-to-wrist distance the point would need, m.
         distance: f64,
+        /// Nearest reachable wrist distance, |upper − fore|, m.
         inner: f64,
+        /// Farthest reachable wrist distance, upper + fore, m.
         outer: f64,
     },
+    /// An [`ArmGeometry`] length is not finite and positive, or the base is not finite; holds the
+    /// field's name.
     #[error("arm: {0} must be finite and > 0")]
     BadArm(&'static str),
+    /// The [`Contour`] cannot be measured (non-finite start, no or zero-length segments, an arc
+    /// over a full turn, a bad spacing); holds what to change.
     #[error("contour: {0}")]
     BadContour(String),
 }
@@ -148,7 +162,12 @@ pub enum Segment {
     /// A straight line to this point, m.
     Line([f64; 2]),
     /// An arc about `center` (m) turning by `sweep` (rad, counter-clockwise positive).
-    Arc { center: [f64; 2], sweep: f64 },
+    Arc {
+        /// Centre of the arc, m; the radius is its distance from the segment's start.
+        center: [f64; 2],
+        /// Angle turned about the centre, rad, counter-clockwise positive, at most one turn.
+        sweep: f64,
+    },
 }
 
 /// A part contour: the tool's programmed path in the arm's plane.
@@ -157,6 +176,7 @@ pub enum Segment {
 pub struct Contour {
     /// Where the tool starts, m.
     pub start: [f64; 2],
+    /// The lines and arcs of the contour, in the order the tool follows them.
     pub segments: Vec<Segment>,
     /// Angle of the hand to +x along the whole contour, rad.
     pub tool_angle: f64,
@@ -218,6 +238,8 @@ struct Piece {
 }
 
 impl ContourPath {
+    /// Measures each segment of `contour`; rejects a non-finite start or tool angle, no or
+    /// zero-length segments, and arcs of more than one turn.
     pub fn new(contour: &Contour) -> Result<Self, PathError> {
         let bad = |reason: String| PathError::BadContour(reason);
         if !contour.start.iter().all(|v| v.is_finite()) || !contour.tool_angle.is_finite() {
@@ -374,13 +396,16 @@ pub struct JointPath {
 /// Where the program is: segment `k` and the path length `l_k` along it.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct PathCursor {
+    /// Index k of the current segment, from 0.
     pub segment: usize,
+    /// Path length l_k covered within the segment, m, in [0, L].
     pub along: f64,
 }
 
 /// Joint reference at a path position: angles and their first and second derivatives in l.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct JointSample {
+    /// Shoulder, elbow and wrist angles q, rad.
     pub position: [f64; 3],
     /// dq/dl, rad/m.
     pub slope: [f64; 3],

@@ -5,12 +5,12 @@
 //!
 //! # Cutting force
 //!
-//! The paper takes the mechanistic model of Wu's micro-milling thesis (its ref. [7]): per tooth, a
+//! The paper takes the mechanistic model of Wu's micro-milling thesis (its ref. \[7]): per tooth, a
 //! tangential force `F_t = K_t·h·w` and a normal force `F_n = K_n·h·w` (Rubio eq (2)), with `h` the
-//! undeformed chip thickness and `w` the axial depth of cut (Rubio eq (3) integrated over a straight
-//! flute, helix neglected as in the paper's 2-D orthogonal assumption), projected onto the feed
-//! axis with Rubio eq (4): on the tool, `F_x = −F_t cos φ − F_n sin φ`, where φ is the tooth angle
-//! measured from the axis normal to the feed, growing with the spindle's rotation (Altintas'
+//! undeformed chip thickness and `w` the axial depth of cut (Rubio eq (3) integrated over a
+//! straight flute, helix neglected as in the paper's 2-D orthogonal assumption), projected onto the
+//! feed axis with Rubio eq (4): on the tool, `F_x = −F_t cos φ − F_n sin φ`, where φ is the tooth
+//! angle measured from the axis normal to the feed, growing with the spindle's rotation (Altintas'
 //! convention). The table carries the workpiece, so the force on the table is `−F_x`.
 //!
 //! The operation is a full slot: a tooth cuts wherever the feed has a positive component along its
@@ -93,18 +93,30 @@ impl Default for MicroMillingParams {
     }
 }
 
+/// Why [`MicroMillingParams`] are rejected.
 #[derive(Debug, Error, Clone, PartialEq)]
 pub enum MicroMillingError {
+    /// The spindle speed or the cutter diameter is zero, negative or not finite; holds its name.
     #[error("micro-milling: {0} must be finite and > 0")]
     NotPositive(&'static str),
+    /// The axial depth, a cutting coefficient or the run-out offset is negative or not finite;
+    /// holds its name.
     #[error("micro-milling: {0} must be finite and ≥ 0")]
     Negative(&'static str),
+    /// The run-out angle or the initial tooth angle is infinite or NaN; holds its name.
     #[error("micro-milling: {0} must be finite")]
     NotFinite(&'static str),
+    /// The cutter has no teeth.
     #[error("micro-milling: teeth must be at least 1")]
     NoTeeth,
+    /// The run-out offset reaches the cutter radius, which would leave a tooth no cutting radius.
     #[error("micro-milling: runout_offset ({offset} m) must be smaller than the cutter radius ({radius} m)")]
-    RunoutTooLarge { offset: f64, radius: f64 },
+    RunoutTooLarge {
+        /// Run-out offset r_o, m.
+        offset: f64,
+        /// Cutter radius R, m.
+        radius: f64,
+    },
 }
 
 /// A validated cut: evaluates the force the cut puts on the feed axis.
@@ -116,6 +128,7 @@ pub struct MicroMillingCut {
 }
 
 impl MicroMillingCut {
+    /// Checks the parameters and works out each tooth's cutting radius under run-out.
     pub fn new(params: MicroMillingParams) -> Result<Self, MicroMillingError> {
         let positive = [
             ("spindle_speed", params.spindle_speed),
@@ -167,6 +180,7 @@ impl MicroMillingCut {
         })
     }
 
+    /// The parameters the cut was built from.
     pub fn params(&self) -> &MicroMillingParams {
         &self.params
     }
@@ -214,13 +228,14 @@ impl MicroMillingCut {
         let (sin, cos) = self.tooth_angle(tooth, time).sin_cos();
         let tangential = self.params.tangential_coefficient * chip * self.params.axial_depth;
         let normal = self.params.normal_coefficient * chip * self.params.axial_depth;
-        // Rubio eq (4) gives the force on the tool; the workpiece, and so the table, takes the reaction.
+        // Rubio eq (4) gives the force on the tool; the workpiece, and so the table, takes the
+        // reaction.
         Some(tangential * cos + normal * sin)
     }
 
     /// The cutting force on the table along its axis, N, at `time` (s) with the table moving at
-    /// `table_velocity` (m/s): the sum over the teeth of [`tooth_force_on_axis`](Self::tooth_force_on_axis).
-    /// Zero when the table stands still.
+    /// `table_velocity` (m/s): the sum over the teeth of
+    /// [`tooth_force_on_axis`](Self::tooth_force_on_axis). Zero when the table stands still.
     pub fn force_on_axis(&self, time: f64, table_velocity: f64) -> f64 {
         (0..self.tooth_radii.len())
             .filter_map(|tooth| self.tooth_force_on_axis(tooth, time, table_velocity))

@@ -1,11 +1,12 @@
-//! The parallel lathe under the paper's power feedback, Sudhakara eqs (16)–(23), and its phase-plane
-//! analysis: RK4 trajectories forward and in reverse time, equilibria and their linearised
-//! stability, nullclines, saturation lines, phase portraits and the region-of-attraction boundary
-//! by the reverse-trajectory method. Results are plain data for plotting or recording.
+//! The parallel lathe under the paper's power feedback, Sudhakara eqs (16)–(23), and its
+//! phase-plane analysis: RK4 trajectories forward and in reverse time, equilibria and their
+//! linearised stability, nullclines, saturation lines, phase portraits and the region-of-attraction
+//! boundary by the reverse-trajectory method. Results are plain data for plotting or recording.
 //!
 //! The commanded feeds follow Sudhakara eqs (19)–(20): f_ci = sat(f_ni − h_i (P − P_max)) with
-//! 0 ≤ f_ci ≤ f_max, and the forces follow Sudhakara eq (3), τ_i Ḟ_i = K̄_i f_ci^α_i − F_i. The paper prints
-//! Sudhakara eqs (16)–(17) without the exponent α_i; Sudhakara eqs (8) and (25) keep it, and so does this model.
+//! 0 ≤ f_ci ≤ f_max, and the forces follow Sudhakara eq (3), τ_i Ḟ_i = K̄_i f_ci^α_i − F_i. The
+//! paper prints Sudhakara eqs (16)–(17) without the exponent α_i; Sudhakara eqs (8) and (25) keep
+//! it, and so does this model.
 
 use super::{require_positive, Lathe, LatheError, TOOLS};
 
@@ -22,8 +23,10 @@ const EQUILIBRIUM_SCAN_SAMPLES: usize = 20_000;
 /// commanded feed counts as sitting on a limit of Sudhakara eq (20).
 const ROUNDING_TOLERANCE: f64 = 1e-12;
 
+/// Which way in time an RK4 step integrates the power loop.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum TimeDirection {
+    /// Integrates Ḟ = f(F), as the machine runs.
     Forward,
     /// Integrates Ḟ = −f(F): the paper's reverse trajectory (sign of Sudhakara eq (16) changed).
     Reverse,
@@ -32,11 +35,14 @@ pub enum TimeDirection {
 /// An axis-aligned window of the force plane, N.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ForceBox {
+    /// Lower corner: the smallest F_1 and F_2, N.
     pub min: [f64; TOOLS],
+    /// Upper corner: the largest F_1 and F_2, N.
     pub max: [f64; TOOLS],
 }
 
 impl ForceBox {
+    /// Whether `forces` (F_1, F_2, N) lie in the window, edges included.
     pub fn contains(&self, forces: [f64; TOOLS]) -> bool {
         (0..TOOLS).all(|i| forces[i] >= self.min[i] && forces[i] <= self.max[i])
     }
@@ -55,7 +61,9 @@ impl ForceBox {
 /// One eigenvalue of a real 2×2 matrix, 1/s.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Eigenvalue {
+    /// Real part, 1/s: negative decays, positive grows.
     pub re: f64,
+    /// Imaginary part, 1/s; non-zero for a conjugate pair, whose trajectories turn.
     pub im: f64,
 }
 
@@ -88,15 +96,20 @@ pub enum FeedRegime {
 /// Linearised character of an equilibrium (Theorem 2, Lemma 2.1).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum EquilibriumKind {
+    /// Two negative real eigenvalues: nearby trajectories approach without turning.
     StableNode,
+    /// A conjugate pair with negative real part: nearby trajectories spiral in.
     StableFocus,
+    /// Real eigenvalues of opposite signs: its stable manifold can bound a region of attraction.
     Saddle,
+    /// Two positive real eigenvalues: nearby trajectories leave without turning.
     UnstableNode,
+    /// A conjugate pair with positive real part: nearby trajectories spiral out.
     UnstableFocus,
     /// An eigenvalue on the imaginary axis: the linearisation decides nothing.
     NonHyperbolic,
-    /// A commanded feed sits exactly on a limit of Sudhakara eq (20), where the vector field has a kink
-    /// (and, with α < 1, an unbounded slope on the zero-feed side): no linearisation applies.
+    /// A commanded feed sits exactly on a limit of Sudhakara eq (20), where the vector field has a
+    /// kink (and, with α < 1, an unbounded slope on the zero-feed side): no linearisation applies.
     NonSmooth,
 }
 
@@ -109,10 +122,13 @@ pub struct Equilibrium {
     pub spindle_power: f64,
     /// Sudhakara eq (20) there, m/rev.
     pub commanded_feeds: [f64; TOOLS],
+    /// Which branch of the feed saturation each tool's commanded feed is on.
     pub feed_regimes: [FeedRegime; TOOLS],
     /// ∂Ḟ/∂F, analytic (see [`PowerLoop::jacobian`]), 1/s.
     pub jacobian: [[f64; 2]; 2],
+    /// Eigenvalues of the Jacobian, ordered as [`eigenvalues`] returns them, 1/s.
     pub eigenvalues: [Eigenvalue; 2],
+    /// The verdict of the linearisation, or [`EquilibriumKind::NonSmooth`] on a feed limit.
     pub kind: EquilibriumKind,
 }
 
@@ -156,11 +172,13 @@ pub enum FeedLimit {
 }
 
 /// A saturation boundary: the line V_1 F_1 + V_2 F_2 = `spindle_power` on which tool `tool`'s
-/// commanded feed reaches `limit`. Its slope is −V_1/V_2 for every tool and gain, Sudhakara eq (22).
+/// commanded feed reaches `limit`. Its slope is −V_1/V_2 for every tool and gain,
+/// Sudhakara eq (22).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SaturationLine {
     /// 1 or 2, as numbered in the paper.
     pub tool: usize,
+    /// Whether the commanded feed reaches zero or f_max on this line.
     pub limit: FeedLimit,
     /// W.
     pub spindle_power: f64,
@@ -195,8 +213,8 @@ impl SaturationLine {
     }
 }
 
-/// Zero sets of Sudhakara eqs (17a) and (17b) inside a window, each as polylines (a curve leaving and
-/// re-entering the window gives several).
+/// Zero sets of Sudhakara eqs (17a) and (17b) inside a window, each as polylines (a curve leaving
+/// and re-entering the window gives several).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Nullclines {
     /// Ḟ_1 = 0.
@@ -224,18 +242,23 @@ pub struct PortraitSpec {
     pub tolerance: f64,
 }
 
+/// One simulated run of the power loop from a grid point of a [`PortraitSpec`].
 #[derive(Debug, Clone, PartialEq)]
 pub struct Trajectory {
+    /// F_1, F_2 at the start, N.
     pub initial_forces: [f64; TOOLS],
     /// States spaced `record_every · step` apart in time, starting with the initial forces.
     pub points: Vec<[f64; TOOLS]>,
+    /// F_1, F_2 at the end of the simulated time, N.
     pub final_forces: [f64; TOOLS],
     /// Ended at the desired equilibrium (the reference forces of Sudhakara eq (5)).
     pub converged: bool,
 }
 
+/// The forward runs from every grid point of a [`PortraitSpec`].
 #[derive(Debug, Clone, PartialEq)]
 pub struct PhasePortrait {
+    /// One per grid point, tool 1's initial force varying slowest.
     pub trajectories: Vec<Trajectory>,
 }
 
@@ -258,12 +281,14 @@ pub struct ReverseTrajectorySpec {
     pub offset: f64,
     /// Longest reverse time per branch, s.
     pub duration: f64,
+    /// RK4 step, s.
     pub step: f64,
     /// A branch stops when it leaves this window.
     pub window: ForceBox,
 }
 
-/// The lathe under the output-feedback law of Sudhakara eq (9) with feed saturation, Sudhakara eq (20).
+/// The lathe under the output-feedback law of Sudhakara eq (9) with feed saturation,
+/// Sudhakara eq (20).
 #[derive(Debug, Clone, PartialEq)]
 pub struct PowerLoop {
     lathe: Lathe,
@@ -271,8 +296,8 @@ pub struct PowerLoop {
 }
 
 impl PowerLoop {
-    /// `power_gains` is H = (h_1, h_2) of Sudhakara eq (9): commanded-feed change per watt of spindle-power
-    /// error, m/(rev·W) (the paper's mm/kW is 10⁻⁶ of this).
+    /// `power_gains` is H = (h_1, h_2) of Sudhakara eq (9): commanded-feed change per watt of
+    /// spindle-power error, m/(rev·W) (the paper's mm/kW is 10⁻⁶ of this).
     pub fn new(lathe: Lathe, power_gains: [f64; TOOLS]) -> Result<Self, LatheError> {
         for (i, gain) in power_gains.iter().enumerate() {
             if !gain.is_finite() {
@@ -285,6 +310,7 @@ impl PowerLoop {
         Ok(Self { lathe, power_gains })
     }
 
+    /// The lathe the loop is closed around.
     pub fn lathe(&self) -> &Lathe {
         &self.lathe
     }
@@ -372,14 +398,15 @@ impl PowerLoop {
         Ok(points)
     }
 
-    /// The rest point the loop is designed for: the reference forces of Sudhakara eq (5) (the origin of the
-    /// perturbed system, Sudhakara eq (16)).
+    /// The rest point the loop is designed for: the reference forces of Sudhakara eq (5) (the
+    /// origin of the perturbed system, Sudhakara eq (16)).
     pub fn desired_equilibrium(&self) -> Equilibrium {
         self.equilibrium_at(self.lathe.reference_forces())
     }
 
     /// Describes the rest point at `forces` (the caller vouches that it is one, e.g. the origin
-    /// under the Lyapunov gains of Sudhakara eq (26)): feeds, Jacobian, eigenvalues and their verdict.
+    /// under the Lyapunov gains of Sudhakara eq (26)): feeds, Jacobian, eigenvalues and their
+    /// verdict.
     pub fn equilibrium_at(&self, forces: [f64; TOOLS]) -> Equilibrium {
         let spindle_power = self.lathe.spindle_power(forces);
         let unsaturated = self.feeds_at_power(spindle_power);
@@ -473,8 +500,8 @@ impl PowerLoop {
         })
     }
 
-    /// The lines where each tool's commanded feed reaches zero (Sudhakara eq (21)) or f_max, for tools
-    /// with a non-zero gain. A zero-feed line at P = P_max + f_ni/h_i lies in the positive
+    /// The lines where each tool's commanded feed reaches zero (Sudhakara eq (21)) or f_max, for
+    /// tools with a non-zero gain. A zero-feed line at P = P_max + f_ni/h_i lies in the positive
     /// quadrant exactly when h_i < −f_ni/P_max: the situation Sudhakara eq (23) rules out.
     pub fn saturation_lines(&self) -> Vec<SaturationLine> {
         let nominal = self.lathe.nominal_feeds();
@@ -546,7 +573,7 @@ impl PowerLoop {
         Ok(PhasePortrait { trajectories })
     }
 
-    /// The reverse-trajectory method (Lemma 3.1, ref. [11]): the two branches of a saddle's
+    /// The reverse-trajectory method (Lemma 3.1, ref. \[11]): the two branches of a saddle's
     /// stable manifold, traced backwards in time from either side of it. Together with the
     /// saddle they bound the region of attraction R_a of the desired equilibrium.
     pub fn reverse_trajectories(
@@ -821,7 +848,8 @@ mod tests {
         assert!((end[0] - reference[0]).abs() < 1.0 && (end[1] - reference[1]).abs() < 1.0);
     }
 
-    /// H of the m = 1.5 / 1.49 s design (Sudhakara eq (14)); three rest points, each on both zero sets.
+    /// H of the m = 1.5 / 1.49 s design (Sudhakara eq (14)); three rest points, each on both zero
+    /// sets.
     #[test]
     fn equilibria_lie_on_both_nullclines() {
         let power_loop = PowerLoop::new(table1(), [-1.305_207_6e-8, -7.265_477_4e-8]).unwrap();

@@ -1,23 +1,24 @@
 //! Parallel turning: two single-point tools cutting a stepped part on one spindle, after
 //! Sudhakara & Landers, "Output Feedback Force Control for a Parallel Turning Operation"
-//! (ACC 2003). This module holds the open-loop process: the static force law Sudhakara eq (1), the feed
-//! servos Sudhakara eq (2)–(3) and the operating point of Sudhakara eqs (4)–(6). [`closed_loop`] closes the
-//! power-feedback loop of Sudhakara eqs (16)–(23) and analyses it.
+//! (ACC 2003). This module holds the open-loop process: the static force law Sudhakara eq (1), the
+//! feed servos Sudhakara eqs (2)–(3) and the operating point of Sudhakara eqs (4)–(6).
+//! [`closed_loop`] closes the power-feedback loop of Sudhakara eqs (16)–(23) and analyses it.
 //!
 //! # Units
 //!
 //! Everything here is SI: forces in N, cutting speeds in m/s, feeds in m per spindle revolution,
 //! depths and diameters in m, power in W, spindle speed in rad/s.
 //!
-//! The paper mixes units. Its Sudhakara eq (1) only reproduces its own nominal feeds (Table 1: 0.528 and
-//! 0.875 mm) when evaluated with F in kN, d and f in mm and V in km/min (its nomenclature), while
-//! Sudhakara eqs (4), (5), (7b) and (19)–(23) need V in m/s so that kN·m/s = kW. So K = 1.17 "kN/mm²" is
-//! really kN · mm^−(α+β) · (km/min)^−γ. [`cutting_coefficient_from_paper_units`] converts it once:
+//! The paper mixes units. Its Sudhakara eq (1) only reproduces its own nominal feeds (Table 1:
+//! 0.528 and 0.875 mm) when evaluated with F in kN, d and f in mm and V in km/min (its
+//! nomenclature), while Sudhakara eqs (4), (5), (7b) and (19)–(23) need V in m/s so that kN·m/s =
+//! kW. So K = 1.17 "kN/mm²" is really kN · mm^−(α+β) · (km/min)^−γ.
+//! [`cutting_coefficient_from_paper_units`] converts it once:
 //!
 //! K_SI = K_paper · 10³ (N/kN) · (10³ mm/m)^(α+β) · (0.06 (km/min)/(m/s))^γ,
 //!
-//! after which Sudhakara eq (1) reads F[N] = K_SI · d[m]^β · V[m/s]^γ · f[m]^α. For Table 1 this is
-//! K_SI ≈ 4.765·10⁸ N·m^−1.76·(m/s)^0.27.
+//! after which Sudhakara eq (1) reads F\[N] = K_SI · d\[m]^β · V\[m/s]^γ · f\[m]^α. For Table 1
+//! this is K_SI ≈ 4.765·10⁸ N·m^−1.76·(m/s)^0.27.
 
 pub mod closed_loop;
 
@@ -33,8 +34,8 @@ use thiserror::Error;
 /// The paper's machine has two tools; arrays indexed by tool hold tool 1 first.
 pub const TOOLS: usize = 2;
 
-/// Converts the paper's cutting coefficient (Sudhakara eq (1) in kN, mm and km/min) into the SI form used
-/// here (N, m, m/s); see the module docs for the derivation.
+/// Converts the paper's cutting coefficient (Sudhakara eq (1) in kN, mm and km/min) into the SI
+/// form used here (N, m, m/s); see the module docs for the derivation.
 pub fn cutting_coefficient_from_paper_units(
     coefficient_kn_mm_km_per_min: f64,
     feed_exponent: f64,
@@ -117,8 +118,8 @@ impl ToolParams {
         (commanded_feed - feed_per_rev) / self.feed_time_constant
     }
 
-    /// Sudhakara eq (3): τ_i Ḟ_i = K̄_i f_ci^α − F_i, the force lag the paper uses in place of Sudhakara eqs (1)+(2),
-    /// N/s.
+    /// Sudhakara eq (3): τ_i Ḟ_i = K̄_i f_ci^α − F_i, the force lag the paper uses in place of
+    /// Sudhakara eqs (1)+(2), N/s.
     pub fn force_rate(&self, cutting_speed: f64, force: f64, commanded_feed: f64) -> f64 {
         (self.cutting_force(cutting_speed, commanded_feed) - force) / self.feed_time_constant
     }
@@ -128,6 +129,7 @@ impl ToolParams {
 #[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct LatheParams {
+    /// Cutting process and feed servo of tool 1 and tool 2.
     pub tools: [ToolParams; TOOLS],
     /// Spindle speed, rad/s (Table 1: 1500 rpm).
     pub spindle_speed: f64,
@@ -167,28 +169,64 @@ pub fn reference_forces(max_spindle_power: f64, cutting_speeds: [f64; TOOLS]) ->
 /// in the paper.
 #[derive(Debug, Error, Clone, PartialEq)]
 pub enum LatheError {
+    /// A quantity that must be positive (a lathe parameter, an integration step or duration, a
+    /// window width, a count) is zero, negative or not finite.
     #[error("lathe: {name} must be finite and > 0 (got {value})")]
-    NonPositive { name: String, value: f64 },
+    NonPositive {
+        /// What the quantity is, e.g. `tool 1 diameter`.
+        name: String,
+        /// The rejected value, in the quantity's SI unit.
+        value: f64,
+    },
+    /// A cutting exponent or a power gain is infinite or NaN.
     #[error("lathe: {name} must be finite (got {value})")]
-    NotFinite { name: String, value: f64 },
+    NotFinite {
+        /// What the quantity is, e.g. `power gain h_1`.
+        name: String,
+        /// The rejected value.
+        value: f64,
+    },
+    /// A tool's feed exponent α is outside (0, 1].
     #[error("lathe: tool {tool} feed exponent α = {value} is outside (0, 1]")]
-    FeedExponentOutOfRange { tool: usize, value: f64 },
+    FeedExponentOutOfRange {
+        /// 1 or 2.
+        tool: usize,
+        /// The rejected α.
+        value: f64,
+    },
+    /// A tool cannot take its half of P_max without a feed above the limit, so the loop could
+    /// never regulate the spindle to P_max.
     #[error(
         "lathe: tool {tool} must take {required} W (half of P_max) but reaches only {reachable} W \
          at the {max_feed} m/rev feed limit"
     )]
     PowerUnreachable {
+        /// 1 or 2.
         tool: usize,
+        /// Power the tool must take, P_max/2, W.
         required: f64,
+        /// Power the tool takes at the feed limit, W.
         reachable: f64,
+        /// Feed limit f_max, m/rev.
         max_feed: f64,
     },
+    /// A trajectory or phase portrait needs more RK4 steps than the cap that keeps a bad request
+    /// from exhausting memory.
     #[error("lathe: the analysis asks for {steps:.3e} integration steps, more than {limit:.0e} (shorten the duration or use fewer grid points)")]
-    TooManySteps { steps: f64, limit: f64 },
+    TooManySteps {
+        /// Steps the request needs (for a portrait, summed over the whole grid).
+        steps: f64,
+        /// The cap on steps.
+        limit: f64,
+    },
+    /// Reverse trajectories were asked from an equilibrium that is not a saddle.
     #[error(
         "lathe: the equilibrium at {forces:?} N is not a saddle, so it has no stable manifold"
     )]
-    NotASaddle { forces: [f64; TOOLS] },
+    NotASaddle {
+        /// F_1, F_2 at that equilibrium, N.
+        forces: [f64; TOOLS],
+    },
 }
 
 pub(crate) fn require_positive(name: impl Into<String>, value: f64) -> Result<(), LatheError> {
@@ -273,6 +311,7 @@ impl Lathe {
         })
     }
 
+    /// The parameters the lathe was built from.
     pub fn params(&self) -> &LatheParams {
         &self.params
     }
@@ -319,8 +358,9 @@ impl Lathe {
         })
     }
 
-    /// K̄_iα of Sudhakara eq (7a): ∂F_i/∂f_i at the nominal feed, α_i K̄_i f_ni^(α−1) = α_i F_ri / f_ni, N/m.
-    /// (The paper prints K_i for K̄_i in this definition; only K̄_i makes it the slope of Sudhakara eq (1).)
+    /// K̄_iα of Sudhakara eq (7a): ∂F_i/∂f_i at the nominal feed, α_i K̄_i f_ni^(α−1) = α_i F_ri /
+    /// f_ni, N/m. (The paper prints K_i for K̄_i in this definition; only K̄_i makes it the slope
+    /// of Sudhakara eq (1).)
     pub fn force_feed_slopes(&self) -> [f64; TOOLS] {
         [0, 1].map(|i| {
             self.params.tools[i].feed_exponent * self.reference_forces[i] / self.nominal_feeds[i]

@@ -6,21 +6,22 @@
 //! `φ_j = θ + 2πj/N`, θ the spindle angle, measured clockwise from +y (the sense the spindle
 //! turns). `n(φ) = (sin φ, cos φ)` points from the tool axis into the material, `t(φ) =
 //! (cos φ, −sin φ)` along the edge's motion. A flute cuts while `φ_j mod 2π` lies in
-//! `[entry_angle, exit_angle]` (`[0, π]` full immersion) and its chip is positive (Kaliński eq (11): the
-//! force vanishes when the edge leaves the material).
+//! `[entry_angle, exit_angle]` (`[0, π]` full immersion) and its chip is positive (Kaliński eq
+//! (11): the force vanishes when the edge leaves the material).
 //!
 //! **Chip and regeneration.** In the workpiece's frame the edge of flute j is, along n, at
 //! `r_j = (u + v_f·t·e_x)·n(φ_j)`, u the tool's deflection and v_f the feed. The material there
 //! is where the last flute to cut at that angle left it, `S`; the chip is `h_j = r_j − S`. The
 //! flute before j passed φ_j when the spindle was one pitch back, `θ(t') = θ(t) − 2π/N`: t' is
 //! found in the spindle's recorded angle, so the delay `τ = t − t'` follows the instantaneous
-//! speed (Kaliński eq (16)'s integral of 1/n over one pitch), not a fixed τ. With no vibration this is
-//! Kaliński eq (11)'s `h_D = f_z·sin φ` with `f_z = v_f·τ`; the paper's `Δh` is the deflection away from
-//! the material, `Δh = −u·n`. A flute that leaves the material leaves the surface as it was, so
-//! the next one cuts what it skipped (multiple regeneration).
+//! speed (Kaliński eq (16)'s integral of 1/n over one pitch), not a fixed τ. With no vibration this
+//! is Kaliński eq (11)'s `h_D = f_z·sin φ` with `f_z = v_f·τ`; the paper's `Δh` is the deflection
+//! away from the material, `Δh = −u·n`. A flute that leaves the material leaves the surface as it
+//! was, so the next one cuts what it skipped (multiple regeneration).
 //!
-//! **Forces** (Kaliński eqs (11)–(13)): tangential `F_t = k_d·a_p·h`, radial `F_r = μ·F_t`, along the tool
-//! axis none; on the tool `F = −F_t·t − F_r·n`, and about the spindle axis the drag `F_t·R`.
+//! **Forces** (Kaliński eqs (11)–(13)): tangential `F_t = k_d·a_p·h`, radial `F_r = μ·F_t`, along
+//! the tool axis none; on the tool `F = −F_t·t − F_r·n`, and about the spindle axis the drag
+//! `F_t·R`.
 
 pub mod stability;
 
@@ -35,12 +36,17 @@ pub const MAX_FLUTES: usize = 8;
 /// Samples of the pass put into the history when the cut starts (one pitch of steady cutting).
 const START_SAMPLES: usize = 64;
 
+/// Why the cut's parameters are rejected.
 #[derive(Debug, Error, Clone, PartialEq)]
 pub enum MillingError {
+    /// A [`MillingCutParams`] field is out of its range.
     #[error("{name} must be {what}, got {value}")]
     Bad {
+        /// The field's name.
         name: &'static str,
+        /// The range it must lie in, in words.
         what: &'static str,
+        /// The rejected value, in the field's SI unit (a count for `flutes`).
         value: f64,
     },
 }
@@ -191,6 +197,7 @@ pub struct MillingCut {
 }
 
 impl MillingCut {
+    /// Checks the parameters; the surface history starts at the first [`advance`](Self::advance).
     pub fn new(params: MillingCutParams) -> Result<Self, MillingError> {
         params.validate()?;
         Ok(Self {
@@ -200,6 +207,7 @@ impl MillingCut {
         })
     }
 
+    /// The parameters the cut was built from.
     pub fn params(&self) -> &MillingCutParams {
         &self.params
     }

@@ -145,34 +145,66 @@ pub struct LobePoint {
     pub boundary: Option<Boundary>,
 }
 
+/// Why a stability computation cannot run; each case names the input to change.
 #[derive(Debug, Error, Clone, PartialEq)]
 pub enum StabilityError {
+    /// A modal mass or stiffness, the cutting pressure, the spindle speed or the maximum depth is
+    /// zero, negative or not finite.
     #[error("milling stability: {field} = {value} must be finite and > 0 (SI units)")]
-    NotPositive { field: &'static str, value: f64 },
+    NotPositive {
+        /// The input, e.g. `tool.mass[0] (x)`.
+        field: &'static str,
+        /// The rejected value, in the input's SI unit.
+        value: f64,
+    },
+    /// A modal damping, the force ratio or the axial depth is negative or not finite.
     #[error("milling stability: {field} = {value} must be finite and ≥ 0 (SI units)")]
-    Negative { field: &'static str, value: f64 },
+    Negative {
+        /// The input, e.g. `tool.damping[1] (y)`.
+        field: &'static str,
+        /// The rejected value, in the input's SI unit.
+        value: f64,
+    },
+    /// The number of flutes is 0 or above the largest accepted; holds the count.
     #[error("milling stability: cut.flutes = {0}; use between 1 and {MAX_FLUTES} flutes")]
     Flutes(usize),
+    /// The engagement is not an arc within [0, π] with entry before exit.
     #[error(
         "milling stability: cut.entry_angle = {entry} rad and cut.exit_angle = {exit} rad must \
          satisfy 0 ≤ entry_angle < exit_angle ≤ π (the chip f_z·sin φ is positive only there; \
          slotting is [0, π])"
     )]
-    Engagement { entry: f64, exit: f64 },
+    Engagement {
+        /// Entry angle of the cut, rad.
+        entry: f64,
+        /// Exit angle of the cut, rad.
+        exit: f64,
+    },
+    /// The intervals per tooth period are fewer than 2 or above the largest accepted; holds the
+    /// count.
     #[error(
         "milling stability: sd.intervals = {0}; use between 2 and {MAX_INTERVALS} (40 is \
          usually enough)"
     )]
     Intervals(usize),
+    /// A spindle speed of a lobe diagram is zero, negative or not finite.
     #[error("milling stability: speeds[{index}] = {value} rad/s must be finite and > 0")]
-    Speed { index: usize, value: f64 },
+    Speed {
+        /// Its position in the list of speeds.
+        index: usize,
+        /// The rejected speed, rad/s.
+        value: f64,
+    },
+    /// The period map at this speed and depth is not finite, or its eigenvalues did not converge.
     #[error(
         "milling stability: the period map at {spindle_speed} rad/s and depth {axial_depth} m is \
          not finite or its eigenvalues did not converge; lower the depth or check the inputs' \
          units (SI)"
     )]
     Numerical {
+        /// Spindle speed Ω where it failed, rad/s.
         spindle_speed: f64,
+        /// Axial depth of cut where it failed, m.
         axial_depth: f64,
     },
 }

@@ -20,11 +20,17 @@ use thiserror::Error;
 #[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
 pub enum Segment {
     /// A straight line, m.
-    Straight { length: f64 },
+    Straight {
+        /// Length of the line, m.
+        length: f64,
+    },
     /// Clothoid – circular arc – clothoid. `radius` (m) is signed: positive turns left.
     Curve {
+        /// Radius R of the circular arc, m; positive turns left.
         radius: f64,
+        /// Length L_c of each clothoid, m; 0 joins the arc with a jump in curvature.
         clothoid_length: f64,
+        /// Length of the circular arc between the clothoids, m.
         arc_length: f64,
     },
 }
@@ -33,6 +39,7 @@ pub enum Segment {
 #[derive(Debug, Clone, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct PathSpec {
+    /// The straights and curves of the path, in the order H follows them.
     pub segments: Vec<Segment>,
     /// Cruise speed V of point H, m/s.
     #[serde(default = "default_speed")]
@@ -50,29 +57,54 @@ fn default_acceleration_time() -> f64 {
     2.0
 }
 
+/// Why a [`PathSpec`] cannot be made into a [`Path`].
 #[derive(Debug, Clone, PartialEq, Error)]
 pub enum PathError {
+    /// A segment's length is negative or not finite.
     #[error("path segment {segment}: {name} must be finite and ≥ 0, got {value}")]
     NegativeLength {
+        /// Index of the segment, from 0.
         segment: usize,
+        /// Which length: `length`, `clothoid_length` or `arc_length`.
         name: &'static str,
+        /// The rejected length, m.
         value: f64,
     },
+    /// A curve's radius is zero or not finite.
     #[error("path segment {segment}: radius must be finite and non-zero, got {value}")]
-    BadRadius { segment: usize, value: f64 },
+    BadRadius {
+        /// Index of the segment, from 0.
+        segment: usize,
+        /// The rejected radius, m.
+        value: f64,
+    },
+    /// There are no segments, or all of them have zero length.
     #[error("path has no length")]
     Empty,
+    /// The cruise speed or the acceleration time is not finite and positive.
     #[error("path {name} must be finite and > 0, got {value}")]
-    BadTiming { name: &'static str, value: f64 },
+    BadTiming {
+        /// `speed` or `acceleration_time`.
+        name: &'static str,
+        /// The rejected value, m/s or s.
+        value: f64,
+    },
+    /// The path is shorter than the distance needed to reach the cruise speed and stop again.
     #[error(
         "path is {length:.3} m long, shorter than the {needed:.3} m needed to speed up and stop"
     )]
-    TooShort { length: f64, needed: f64 },
+    TooShort {
+        /// Total arc length of the path, m.
+        length: f64,
+        /// V·T: the distance covered speeding up and slowing down, m.
+        needed: f64,
+    },
 }
 
 /// A point of the path at arc length s.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct PathPoint {
+    /// Arc length from the start of the path, m.
     pub s: f64,
     /// m.
     pub position: [f64; 2],
@@ -102,6 +134,7 @@ impl PathPoint {
 /// Where the path should have brought point H at time t.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct PathSample {
+    /// Position, heading and curvature at the arc length reached at t.
     pub point: PathPoint,
     /// ds/dt, m/s.
     pub speed: f64,

@@ -20,7 +20,8 @@
 //! |F| = μ·N · (|σ|/σ₀) / √(1 + (|σ|/σ₀)²)
 //! ```
 //!
-//! linear for small slip (slip stiffness μ·N/σ₀), reaching μ·N/√2 at |σ| = σ₀ and saturating at μ·N.
+//! linear for small slip (slip stiffness μ·N/σ₀), reaching μ·N/√2 at |σ| = σ₀ and saturating at
+//! μ·N.
 
 use serde::Deserialize;
 use thiserror::Error;
@@ -44,14 +45,28 @@ impl Default for TyreParams {
     }
 }
 
+/// Why the tyre parameters or the wheel contacts cannot carry the platform.
 #[derive(Debug, Clone, PartialEq, Error)]
 pub enum TyreError {
+    /// A [`TyreParams`] field is zero, negative or not finite.
     #[error("tyre {name} must be finite and > 0, got {value}")]
-    NotPositive { name: &'static str, value: f64 },
+    NotPositive {
+        /// `saturation_slip` or `speed_floor`.
+        name: &'static str,
+        /// The rejected value (a slip ratio, or m/s).
+        value: f64,
+    },
+    /// The contact points lie on one line (or are fewer than three), so the loads are undetermined.
     #[error("the wheels' contact points are collinear: they cannot carry the platform")]
     Collinear,
+    /// The centre of mass lies outside the support polygon: a contact would have to pull.
     #[error("the centre of mass lies outside the wheels' support: contact {contact} would carry {load:.3} N")]
-    Unsupported { contact: usize, load: f64 },
+    Unsupported {
+        /// Index of the first such contact, in the order given.
+        contact: usize,
+        /// The normal load it would carry, N (≤ 0).
+        load: f64,
+    },
 }
 
 /// What one contact does during a step.
@@ -67,6 +82,7 @@ pub struct ContactForce {
 }
 
 impl TyreParams {
+    /// Checks that σ₀ and v_floor are finite and positive.
     pub fn validate(&self) -> Result<(), TyreError> {
         for (name, value) in [
             ("saturation_slip", self.saturation_slip),

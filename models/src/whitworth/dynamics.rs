@@ -9,10 +9,10 @@
 //! - `τ` is the crank torque and `f_y` an external vertical force on the ram (a cutting force),
 //!   which does the virtual work `f_y·δy = ρ_y·f_y·δq`.
 //!
-//! This is the paper's extended model (Perrusquía eq (6) and Appendix B, eq B.4) written with the twin's
-//! link masses instead of the paper's unprinted ones: `M(q) = ρᵀ·M′·ρ`, with ρ the extended
-//! Jacobian of the centres of mass and link angles. Nothing here reads the simulator; the masses
-//! default to the ones in `urdf/whitworth.urdf`.
+//! This is the paper's extended model (Perrusquía eq (6) and, in its Appendix B,
+//! Perrusquía eq (B.4)) written with the twin's link masses instead of the paper's unprinted ones: `M(q) =
+//! ρᵀ·M′·ρ`, with ρ the extended Jacobian of the centres of mass and link angles. Nothing here
+//! reads the simulator; the masses default to the ones in `urdf/whitworth.urdf`.
 
 use crate::whitworth::{Geometry, GeometryError};
 use serde::Deserialize;
@@ -37,10 +37,15 @@ pub struct LinkInertia {
 #[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct LinkMasses {
+    /// Crank O2–A; frame at O2 along the crank.
     pub crank: LinkInertia,
+    /// Sliding block; frame on the crank pin A, turning with the slot.
     pub block: LinkInertia,
+    /// Slotted link; frame at O3 along the slot.
     pub slotted_link: LinkInertia,
+    /// Coupler B–C; frame at B pointing towards C.
     pub coupler: LinkInertia,
+    /// Ram; frame at C, sliding on its guide without turning.
     pub ram: LinkInertia,
 }
 
@@ -74,20 +79,34 @@ impl LinkMasses {
     }
 }
 
+/// Why a [`Dynamics`] cannot be built.
 #[derive(Debug, Error, Clone, PartialEq)]
 pub enum DynamicsError {
+    /// The linkage dimensions are rejected.
     #[error(transparent)]
     Geometry(#[from] GeometryError),
+    /// A link's mass or moment of inertia is negative, infinite or NaN.
     #[error("whitworth dynamics: {link} {what} must be finite and ≥ 0 (got {value})")]
     BadInertia {
+        /// The link, named as its [`LinkMasses`] field.
         link: &'static str,
+        /// `"mass"` or `"izz"`.
         what: &'static str,
+        /// The rejected value, kg or kg·m².
         value: f64,
     },
+    /// A link's centre-of-mass distance is infinite or NaN.
     #[error("whitworth dynamics: {link} centre_of_mass must be finite (got {value})")]
-    BadCentre { link: &'static str, value: f64 },
+    BadCentre {
+        /// The link, named as its [`LinkMasses`] field.
+        link: &'static str,
+        /// The rejected distance, m.
+        value: f64,
+    },
+    /// Every link has zero mass and zero moment of inertia, so M(q) would vanish.
     #[error("whitworth dynamics: the linkage has no inertia")]
     Massless,
+    /// Gravity is infinite or NaN; holds the value given, m/s².
     #[error("whitworth dynamics: gravity must be finite (got {0} m/s²)")]
     BadGravity(f64),
 }
@@ -150,10 +169,12 @@ impl Dynamics {
         })
     }
 
+    /// Linkage dimensions the model was built with.
     pub fn geometry(&self) -> &Geometry {
         &self.geometry
     }
 
+    /// Link mass properties the model was built with.
     pub fn masses(&self) -> &LinkMasses {
         &self.masses
     }

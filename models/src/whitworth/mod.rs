@@ -1,15 +1,15 @@
 //! Inverted Whitworth quick-return linkage: closed-form kinematics of the twin's geometry.
 //!
 //! Crank O2–A turns fully about the ground pivot O2 (the origin). The block on the crank pin A
-//! slides in the slotted link, pivoted on the ground at O3; the slotted link carries the coupler pin
-//! B at a fixed distance from O3; the coupler B–C drives the ram C on a vertical guide `x = guide_x`.
-//! Angles are measured from +x, counter-clockwise; gravity acts along −y.
+//! slides in the slotted link, pivoted on the ground at O3; the slotted link carries the coupler
+//! pin B at a fixed distance from O3; the coupler B–C drives the ram C on a vertical guide `x =
+//! guide_x`. Angles are measured from +x, counter-clockwise; gravity acts along −y.
 //!
 //! Coordinates follow the paper's Appendix B: crank angle q, secondary coordinates
 //! s = [r3, θ3, θ4, y] (block distance along the slot, slot angle, coupler angle, ram height).
-//! The paper attaches the coupler at r3 + AB along the slot (eq B.1); the twin pins it to the
-//! slotted link at a fixed distance, the classical layout, because the printed dimensions cannot
-//! close the loop over a full crank turn (see the README's model notes).
+//! The paper attaches the coupler at r3 + AB along the slot (Perrusquía eq (B.1)); the twin pins it
+//! to the slotted link at a fixed distance, the classical layout, because the printed dimensions
+//! cannot close the loop over a full crank turn (see the README's model notes).
 
 pub mod dynamics;
 
@@ -47,19 +47,34 @@ impl Default for Geometry {
     }
 }
 
+/// Why a [`Geometry`] cannot make a working linkage.
 #[derive(Debug, Error, Clone, PartialEq)]
 pub enum GeometryError {
+    /// A length that must be positive is zero, negative or NaN; holds the field's name.
     #[error("whitworth geometry: {0} must be > 0")]
     NonPositive(&'static str),
+    /// The slot pivot O3 lies on or outside the crank circle, so the crank cannot make a full turn.
     #[error("whitworth geometry: the slot pivot is {distance} m from the crank pivot, not less than the crank length {crank} m, so the crank cannot turn fully")]
-    CrankCannotTurn { distance: f64, crank: f64 },
+    CrankCannotTurn {
+        /// |O2O3|, m.
+        distance: f64,
+        /// Crank length |O2A|, m.
+        crank: f64,
+    },
+    /// The coupler cannot span from B to the ram guide at every slot angle.
     #[error("whitworth geometry: the coupler ({coupler} m) cannot reach the guide for every slot angle (needs ≥ {needed} m)")]
-    CouplerTooShort { coupler: f64, needed: f64 },
+    CouplerTooShort {
+        /// Coupler length |BC|, m.
+        coupler: f64,
+        /// |guide_x − O3x| + |O3B|, m: the coupler must be longer than this.
+        needed: f64,
+    },
 }
 
 /// The linkage's pose at one crank angle.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Pose {
+    /// Crank angle q the pose was computed at, rad.
     pub crank_angle: f64,
     /// r3 = |O3A|.
     pub slot_distance: f64,
@@ -69,23 +84,31 @@ pub struct Pose {
     pub coupler_angle: f64,
     /// y of C.
     pub ram_position: f64,
+    /// Crank pin A, (x, y) in m.
     pub crank_pin: [f64; 2],
+    /// Coupler pin B on the slotted link, (x, y) in m.
     pub coupler_pin: [f64; 2],
+    /// Ram pin C on the guide, (x, y) in m.
     pub ram_pin: [f64; 2],
 }
 
-/// d s / d q: the extended Jacobian of the secondary coordinates (eq B.3's column, here for the
-/// twin's layout). `ram` is ρ_y = dy/dq.
+/// d s / d q: the extended Jacobian of the secondary coordinates (Perrusquía eq (B.3)'s column,
+/// here for the twin's layout). `ram` is ρ_y = dy/dq.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Jacobian {
+    /// dr3/dq: how fast the block slides along the slot, m/rad.
     pub slot_distance: f64,
+    /// dθ3/dq: slot angle turned per crank angle, rad/rad.
     pub slot_angle: f64,
+    /// dθ4/dq: coupler angle turned per crank angle, rad/rad.
     pub coupler_angle: f64,
+    /// ρ_y = dy/dq: ram travel per crank angle, m/rad; zero at the stroke ends.
     pub ram: f64,
 }
 
 impl Jacobian {
-    /// [1, dr3/dq, dθ3/dq, dθ4/dq, dy/dq]: ρ of Perrusquía eqs (6)–(9), with q itself as the first entry.
+    /// [1, dr3/dq, dθ3/dq, dθ4/dq, dy/dq]: ρ of Perrusquía eqs (6)–(9), with q itself as the first
+    /// entry.
     pub fn extended(&self) -> [f64; 5] {
         [
             1.0,
@@ -104,7 +127,9 @@ pub struct Stroke {
     pub top_crank_angle: f64,
     /// Crank angle at the bottom of the stroke (end of the cutting stroke), in (−π, π].
     pub bottom_crank_angle: f64,
+    /// Ram height y at the top of the stroke, m.
     pub top: f64,
+    /// Ram height y at the bottom of the stroke, m.
     pub bottom: f64,
 }
 
@@ -155,7 +180,7 @@ impl Geometry {
         Ok(())
     }
 
-    /// Forward kinematics (the twin's counterpart of eq B.2).
+    /// Forward kinematics (the twin's counterpart of Perrusquía eq (B.2)).
     pub fn pose(&self, crank_angle: f64) -> Pose {
         let [o3x, o3y] = self.slot_pivot;
         let crank_pin = [
@@ -187,7 +212,7 @@ impl Geometry {
         self.pose(crank_angle).ram_position
     }
 
-    /// First-order kinematics at q (the counterpart of eq B.3).
+    /// First-order kinematics at q (the counterpart of Perrusquía eq (B.3)).
     pub fn jacobian(&self, crank_angle: f64) -> Jacobian {
         let p = self.pose(crank_angle);
         let relative = crank_angle - p.slot_angle;

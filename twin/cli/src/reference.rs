@@ -11,6 +11,9 @@ pub fn markdown(command: &mut Command) -> String {
     command.build();
     let mut text = String::new();
     section(command, &mut text);
+    // One newline at the end, as editors and pre-commit hooks leave a file.
+    text.truncate(text.trim_end().len());
+    text.push('\n');
     text
 }
 
@@ -21,7 +24,7 @@ fn section(command: &Command, text: &mut String) {
     let usage = command.clone().render_usage().to_string();
     let _ = writeln!(text, "## {name}\n");
     if let Some(about) = about {
-        let _ = writeln!(text, "{}\n", escape(&about.to_string()));
+        let _ = writeln!(text, "{}\n", sentence(&about.to_string()));
     }
     let _ = writeln!(text, "```text\n{}\n```\n", usage.trim_end());
     let (positionals, options): (Vec<&Arg>, Vec<&Arg>) = command
@@ -46,7 +49,7 @@ fn section(command: &Command, text: &mut String) {
         text.push('\n');
     }
     if let Some(after) = command.get_after_long_help().or(command.get_after_help()) {
-        let _ = writeln!(text, "{}\n", escape(&after.to_string()));
+        let _ = writeln!(text, "{}\n", sentence(&after.to_string()));
     }
     for sub in subcommands {
         section(sub, text);
@@ -68,8 +71,8 @@ fn is_help(arg: &Arg) -> bool {
     )
 }
 
-/// A list item for one argument: its name and values, its help, what it conflicts with, its
-/// possible values and its default.
+/// A list item for one argument: its name and values, then its help, what it conflicts with,
+/// its possible values and its default, as sentences.
 fn argument(command: &Command, arg: &Arg) -> String {
     let mut item = match arg.get_short().filter(|_| arg.get_long().is_some()) {
         Some(short) => format!("- `-{short}, {arg}`"),
@@ -78,33 +81,28 @@ fn argument(command: &Command, arg: &Arg) -> String {
     if arg.is_required_set() {
         item.push_str(" (required)");
     }
-    if !arg.is_positional() && matches!(arg.get_action(), ArgAction::Append) {
+    // `--rpm FROM TO` appends too, but is given once; only one-value options are repeated.
+    let one_value = arg.get_num_args().is_none_or(|n| n.max_values() <= 1);
+    if !arg.is_positional() && one_value && matches!(arg.get_action(), ArgAction::Append) {
         item.push_str(" (repeatable)");
     }
+    let mut sentences = Vec::new();
     if let Some(help) = arg.get_long_help().or(arg.get_help()) {
         // Later paragraphs are indented to stay inside the list item.
-        let help = escape(&help.to_string()).replace("\n\n", "\n\n  ");
-        let _ = write!(item, ": {help}");
+        sentences.push(sentence(&help.to_string()).replace("\n\n", "\n\n  "));
     }
     let conflicts: Vec<String> = command
         .get_arg_conflicts_with(arg)
         .iter()
-        .map(|other| {
-            format!(
-                "`{}`",
-                other
-                    .get_long()
-                    .map_or(other.to_string(), |l| format!("--{l}"))
-            )
-        })
+        .map(|other| format!("`{}`", flag(other)))
         .collect();
     if !conflicts.is_empty() {
-        let _ = write!(item, " Not with {}.", conflicts.join(", "));
+        sentences.push(format!("Not with {}.", conflicts.join(", ")));
     }
     if arg.get_action().takes_values() {
         let values = possible_values(arg);
         if !values.is_empty() {
-            let _ = write!(item, " Values: {values}.");
+            sentences.push(format!("Values: {values}."));
         }
         let defaults: Vec<String> = arg
             .get_default_values()
@@ -112,10 +110,19 @@ fn argument(command: &Command, arg: &Arg) -> String {
             .map(|value| value.to_string_lossy().into_owned())
             .collect();
         if !defaults.is_empty() {
-            let _ = write!(item, " Default: `{}`.", defaults.join(" "));
+            sentences.push(format!("Default: `{}`.", defaults.join(" ")));
         }
     }
+    if !sentences.is_empty() {
+        let _ = write!(item, ": {}", sentences.join(" "));
+    }
     item
+}
+
+/// How an argument is named in prose: `--long`, else as its usage shows it.
+fn flag(arg: &Arg) -> String {
+    arg.get_long()
+        .map_or_else(|| arg.to_string(), |long| format!("--{long}"))
 }
 
 /// An argument's possible values (a value enum's), each with its help when it has one.
@@ -135,8 +142,18 @@ fn possible_values(arg: &Arg) -> String {
 fn subcommand(parent: &str, sub: &Command) -> String {
     let name = format!("{parent} {}", sub.get_name());
     let anchor = name.replace(' ', "-");
-    let about = sub.get_about().map(|a| escape(&a.to_string()));
+    let about = sub.get_about().map(|a| sentence(&a.to_string()));
     format!("- [`{name}`](#{anchor}): {}", about.unwrap_or_default())
+}
+
+/// Help text as Markdown ending in a full stop (clap drops a doc comment's last one).
+fn sentence(text: &str) -> String {
+    let text = escape(text.trim_end());
+    if text.ends_with(['.', '!', '?', ':']) {
+        text
+    } else {
+        text + "."
+    }
 }
 
 /// Help text as Markdown: `<` and `&` outside code spans are escaped, so that `<scenario>` is

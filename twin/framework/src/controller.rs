@@ -28,8 +28,10 @@ impl fmt::Display for EffortKind {
 pub struct Actuator {
     /// The joint's name in the URDF.
     pub joint: String,
+    /// Whether the joint takes a torque (N·m) or a force (N).
     pub kind: EffortKind,
-    /// Largest |effort| the twin applies (from the URDF `<limit effort>`); the command is clipped to it.
+    /// Largest |effort| the twin applies (from the URDF `<limit effort>`); the command is clipped
+    /// to it.
     pub effort_limit: f64,
 }
 
@@ -43,6 +45,7 @@ pub struct PlantInterface {
     /// Measured signal names: `<joint>.position`, `<joint>.velocity`, the machine's task-space and
     /// process signals (e.g. `ram_position`, `cutting_force`) and the scenario's references.
     pub signals: Vec<String>,
+    /// The actuated joints, in the order of the effort slice [`Controller::update`] fills.
     pub actuators: Vec<Actuator>,
 }
 
@@ -95,6 +98,7 @@ impl PlantInterface {
 pub struct Measurement<'a> {
     /// Simulated time at the sample, s.
     pub time: f64,
+    /// The sampled values, SI, in the order of [`PlantInterface::signals`].
     pub signals: &'a [f64],
 }
 
@@ -108,11 +112,18 @@ impl Measurement<'_> {
 /// Errors a controller reports when built or bound to a plant; all are raised before a run starts.
 #[derive(Debug, Error, Clone, PartialEq)]
 pub enum ControllerError {
+    /// No controller of the registry has the requested name.
     #[error("unknown controller `{name}` (known: {known})")]
-    Unknown { name: String, known: String },
+    Unknown {
+        /// The name asked for.
+        name: String,
+        /// The registered names, comma-separated, for the message.
+        known: String,
+    },
     /// An entry of the controller's `[controller.params]` table that cannot be used.
     #[error("controller `{controller}`: {}", parameter_message(key, value.as_deref(), reason))]
     BadParameter {
+        /// The controller's name.
         controller: String,
         /// Dotted path of the entry inside the table (`natural_frequency`, `lathe.max_feed`,
         /// `time_constants.0`); empty when the error concerns the whole table.
@@ -122,25 +133,46 @@ pub enum ControllerError {
         /// What the value must be (`must be > 0`), without repeating the key.
         reason: String,
     },
+    /// The plant does not measure a signal the controller reads.
     #[error("controller needs signal `{signal}`, which machine `{machine}` does not measure")]
-    MissingSignal { machine: String, signal: String },
+    MissingSignal {
+        /// The machine's name.
+        machine: String,
+        /// The signal's name, e.g. `ram_position`.
+        signal: String,
+    },
+    /// The plant has no actuator on a joint the controller drives.
     #[error(
         "controller needs an actuator on joint `{joint}`, which machine `{machine}` does not have (a URDF joint is actuated when its <limit effort> is > 0)"
     )]
-    MissingActuator { machine: String, joint: String },
+    MissingActuator {
+        /// The machine's name.
+        machine: String,
+        /// The URDF joint the controller would drive.
+        joint: String,
+    },
+    /// An actuated joint takes the other kind of effort than the controller commands.
     #[error(
         "controller needs joint `{joint}` of machine `{machine}` to take a {expected}, not a {found}"
     )]
     WrongEffort {
+        /// The machine's name.
         machine: String,
+        /// The URDF joint.
         joint: String,
+        /// The effort the controller commands.
         expected: EffortKind,
+        /// The effort the joint takes.
         found: EffortKind,
     },
+    /// The controller is registered for another machine than the one it was asked for.
     #[error("controller `{controller}` is written for machine `{written_for}`, not `{machine}`")]
     WrongMachine {
+        /// The controller's name.
         controller: String,
+        /// The machine it was asked for.
         machine: String,
+        /// The machine it is registered for ([`Entry::machine`](crate::Entry::machine)).
         written_for: String,
     },
 }

@@ -8,11 +8,14 @@ pub type Constructor = fn(&toml::Table) -> Result<Box<dyn Controller>, Controlle
 /// One registered controller.
 #[derive(Clone)]
 pub struct Entry {
+    /// The name a scenario's `[controller] name` selects, e.g. `crank-pi`.
     pub name: &'static str,
     /// The machine it is written for ([`ANY_MACHINE`] for any): [`Registry::build`] refuses it
     /// for another.
     pub machine: &'static str,
+    /// One line on what the controller does, for listings.
     pub summary: &'static str,
+    /// Builds the controller from its parameter table.
     pub build: Constructor,
 }
 
@@ -43,6 +46,7 @@ impl Registry {
         self.entries.push(entry);
     }
 
+    /// The registered controllers, in registration order.
     pub fn entries(&self) -> &[Entry] {
         &self.entries
     }

@@ -5,32 +5,52 @@
 /// ([`Unit::from_si`]); [`Unit::label`] is what a plot shows.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum Unit {
+    /// Metres, shown in m.
     Metre,
+    /// Metres, shown in mm.
     Millimetre,
+    /// Metres, shown in µm.
     Micrometre,
+    /// Metres per second, shown in m/s.
     MetrePerSecond,
+    /// Metres per second, shown in mm/s.
     MillimetrePerSecond,
+    /// Metres per second, shown in µm/s.
     MicrometrePerSecond,
+    /// Metres per second squared, shown in m/s².
     MetrePerSecondSquared,
-    /// Feed per revolution (SI m/rev).
+    /// Feed per revolution (SI m/rev), shown in mm/rev.
     MillimetrePerRev,
+    /// Radians, shown in rad.
     Radian,
+    /// Radians, shown in degrees (°), unwrapped.
     Degree,
     /// An angle wrapped to (−180°, 180°]: a turning joint's angle that would otherwise grow
     /// without bound and flatten every other angle on its plot.
     DegreeWrapped,
+    /// Radians per second, shown in rad/s.
     RadianPerSecond,
+    /// Radians per second squared, shown in rad/s².
     RadianPerSecondSquared,
-    /// Revolutions per minute (SI rad/s).
+    /// Revolutions per minute (SI rad/s), shown in rpm.
     Rpm,
+    /// Newtons, shown in N.
     Newton,
+    /// Newton-metres, shown in N·m.
     NewtonMetre,
+    /// Watts, shown in W.
     Watt,
+    /// Watts, shown in kW.
     Kilowatt,
+    /// Joules, shown in J.
     Joule,
+    /// Newton-seconds, shown in N·s.
     NewtonSecond,
+    /// Amperes, shown in A.
     Ampere,
+    /// Seconds, shown in s.
     Second,
+    /// Seconds, shown in ms.
     Millisecond,
     /// A ratio, count, index or mode number.
     Dimensionless,
@@ -119,13 +139,16 @@ impl Unit {
 /// commands.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct SignalSpec {
+    /// The signal's name in the recording, e.g. `ram_position` or `crank.velocity`.
     pub name: String,
+    /// The unit it is shown in; its values stay SI.
     pub unit: Unit,
     /// The plot's title without the unit, in the machine's words (`ram position`, `feed`).
     pub plot: String,
 }
 
 impl SignalSpec {
+    /// A signal `name` shown in `unit` on the plot titled `plot`.
     pub fn new(name: impl Into<String>, unit: Unit, plot: impl Into<String>) -> Self {
         Self {
             name: name.into(),

@@ -44,8 +44,9 @@ pub fn exp(a: &DMatrix<f64>) -> Option<DMatrix<f64>> {
     result.iter().all(|v| v.is_finite()).then_some(result)
 }
 
-/// Zero-order hold over `period` (s): the input held over each period, x[k+1] = Ad·x[k] + Bd·u[k]
-/// with [[Ad, Bd], [0, I]] = exp([[A, B], [0, 0]]·T) (Van Loan's augmented matrix).
+/// Zero-order hold over `period` (s): the input held over each period,
+/// `x[k+1] = Ad·x[k] + Bd·u[k]` with [[Ad, Bd], [0, I]] = exp([[A, B], [0, 0]]·T) (Van Loan's
+/// augmented matrix).
 pub fn zero_order_hold(
     a: &DMatrix<f64>,
     b: &DMatrix<f64>,

@@ -25,16 +25,24 @@ use expm::zero_order_hold;
 /// Why the Jacobians make no model.
 #[derive(Debug, Clone, PartialEq, Error)]
 pub enum ModelError {
+    /// The loop closures do not converge at the operating point or at a state perturbed from it.
     #[error("at the operating point: {0}")]
     State(#[from] ReducedError),
+    /// A matrix came out with a NaN or infinite entry.
     #[error("the linear model is not finite ({what}): the operating point is not one to linearise about")]
-    NotFinite { what: &'static str },
+    NotFinite {
+        /// Which matrices: "A", "B", "C" or "Ad, Bd".
+        what: &'static str,
+    },
 }
 
 /// A state, input or output: its name in the machine's words and its SI unit.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Channel {
+    /// `joint.position` or `joint.velocity` for a state, the actuated joint for an input, the
+    /// measured signal for an output.
     pub name: String,
+    /// SI unit label, e.g. "rad/s" or "N·m".
     pub unit: &'static str,
 }
 
@@ -54,26 +62,38 @@ pub struct OperatingPoint {
 /// The linear model. Matrices are row-major lists of rows.
 #[derive(Debug, Clone, PartialEq)]
 pub struct LinearModel {
+    /// Name of the scenario linearised.
     pub scenario: String,
+    /// x: the independent joints' coordinates, then their rates.
     pub states: Vec<Channel>,
+    /// u: the efforts at the actuated joints.
     pub inputs: Vec<Channel>,
+    /// y: the measured signals that are functions of the state.
     pub outputs: Vec<Channel>,
     /// Measured signals not among the outputs, and why (they depend on the machine's history or
     /// its drives' states, not on the mechanism's state).
     pub outputs_left_out: Vec<(String, String)>,
+    /// A = ∂ẋ/∂x, states × states.
     pub a: Vec<Vec<f64>>,
+    /// B = ∂ẋ/∂u, states × inputs.
     pub b: Vec<Vec<f64>>,
+    /// C = ∂y/∂x, outputs × states.
     pub c: Vec<Vec<f64>>,
+    /// D = ∂y/∂u, outputs × inputs: all zeros.
     pub d: Vec<Vec<f64>>,
     /// The scenario's control period, s: the zero-order hold's.
     pub control_period: f64,
+    /// Ad = e^(A·T): the state matrix discretised by zero-order hold at the control period T.
     pub ad: Vec<Vec<f64>>,
+    /// Bd = ∫₀ᵀ e^(A·τ) dτ · B: the input matrix discretised by zero-order hold.
     pub bd: Vec<Vec<f64>>,
     /// Eigenvalues of A, [real, imaginary] (1/s), ordered by real part, then imaginary.
     pub poles: Vec<[f64; 2]>,
+    /// (t, x₀, u₀, y₀) the model was linearised about.
     pub operating_point: OperatingPoint,
-    /// The central-difference steps taken, per state and per input (SI).
+    /// The central-difference steps taken, per state (SI).
     pub state_steps: Vec<f64>,
+    /// The central-difference steps taken, per input (N·m or N).
     pub input_steps: Vec<f64>,
 }
 

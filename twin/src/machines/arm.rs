@@ -51,9 +51,9 @@
 //! triple pole at ω = 80 rad/s (`controllers::arm::servo`: the arm's mass matrix at every pose, so
 //! the design holds stretched out as at the contour). With the paper's `T_K2 = 1/ω_c` the
 //! shoulder current peaks at 18.08 A, 0.5 % over the 18 A tolerance; `T_K2` = 50 ms keeps it at
-//! 18.0 A at the same finishing time, so the scenario sets it. `T_K1` = 2 ms, `T_K3` = 20 ms, `T_K4` = 5 ms (the paper
-//! prints none). The fastest constant path speed with no current over 18 A on this contour is
-//! 14 mm/s (17.9 A; 14.5 mm/s gives 18.1 A).
+//! 18.0 A at the same finishing time, so the scenario sets it. `T_K1` = 2 ms, `T_K3` = 20 ms,
+//! `T_K4` = 5 ms (the paper prints none). The fastest constant path speed with no current over 18 A
+//! on this contour is 14 mm/s (17.9 A; 14.5 mm/s gives 18.1 A).
 //!
 //! **Constant V0 fails hard.** In up milling the cut pulls the tool into the stock, on top of
 //! gravity: once the shoulder is clipped at 20 A the arm sags into the part, the cut deepens, the
@@ -490,8 +490,9 @@ impl Machine for Arm {
     }
 }
 
-/// The arm's workspace (its reach around the shoulder) with the part: its finished contour, the cast stock's outline
-/// (the contour offset by the stock depth, on the right of travel) and the tool point's trace.
+/// The arm's workspace (its reach around the shoulder) with the part: its finished contour, the
+/// cast stock's outline (the contour offset by the stock depth, on the right of travel) and the
+/// tool point's trace.
 fn scene(shoulder: [f64; 2], contour: &ContourPath, stock: &Stock) -> Scene {
     const SAMPLES: usize = 300;
     /// Upper arm + forearm + hand, m (the model notes').

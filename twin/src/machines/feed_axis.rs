@@ -5,11 +5,11 @@
 //! Fig. 1, and loaded by the micro-milling cut of [`models::feed_axis::micromilling`] (II.(2)–(4)).
 //!
 //! **Drive.** The controller's force command F* (N) is the amplifier's input through the voltage
-//! `u_c = F*/(k_t·K_a)`; the current amplifier gives `i = k_t·u_c`, limited to ±`current_limit`, and
-//! the motor pushes the table with `F_m = K_a·i`. The amplifier is taken as static (its current loop
-//! far faster than the position loop), as in the paper's model. Defaults: the paper's
-//! `k_t` = 2 A/V and `K_a` = 50 N/A (§V); a peak current of 10 A, the order of a linear motor of this
-//! force constant (500 N peak, which the URDF's `<limit effort>` matches). The current is the
+//! `u_c = F*/(k_t·K_a)`; the current amplifier gives `i = k_t·u_c`, limited to ±`current_limit`,
+//! and the motor pushes the table with `F_m = K_a·i`. The amplifier is taken as static (its current
+//! loop far faster than the position loop), as in the paper's model. Defaults: the paper's
+//! `k_t` = 2 A/V and `K_a` = 50 N/A (§V); a peak current of 10 A, the order of a linear motor of
+//! this force constant (500 N peak, which the URDF's `<limit effort>` matches). The current is the
 //! machine's measured signal `table_current` (A), the current that flowed over the last step.
 //!
 //! **Cut.** With `[process] cutting = true` the cut's force on the table along its axis,

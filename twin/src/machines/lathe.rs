@@ -4,8 +4,8 @@
 //! Each step the machine reads the spindle speed ω and each slide's travel and speed, and works
 //! out the cut with `models::lathe`:
 //! - feed per revolution f_i = 2π v_i / ω (slide speed over spindle speed in rev/s);
-//! - cutting speed V_i = ω D_i / 2 and cutting force Sudhakara eq (1), F_i = K_i d_i^β V_i^γ f_i^α, while the
-//!   tool is in the material;
+//! - cutting speed V_i = ω D_i / 2 and cutting force Sudhakara eq (1), F_i = K_i d_i^β V_i^γ f_i^α,
+//!   while the tool is in the material;
 //! - spindle power Sudhakara eq (4), P = Σ V_i F_i.
 //!
 //! A tool is in the material while its slide is at or beyond the furthest point it has reached
@@ -29,7 +29,8 @@ const MACHINE: &str = "lathe";
 const SLIDES: [&str; TOOLS] = ["slide_1", "slide_2"];
 /// Below this spindle speed the tools do not cut, rad/s.
 const MIN_CUTTING_SPINDLE_SPEED: f64 = 1.0;
-/// A feed within this fraction of f_max from 0 or f_max counts as sitting on a limit of Sudhakara eq (20).
+/// A feed within this fraction of f_max from 0 or f_max counts as sitting on a limit of
+/// Sudhakara eq (20).
 const FEED_LIMIT_BAND: f64 = 0.01;
 
 /// The `[process]` table of a lathe scenario.

@@ -1,9 +1,9 @@
 //! High-speed milling with a slender ball-end tool, after Kaliński & Galewski 2013, §3 (cited
 //! as K(n)): the tool's first bending mode in the machine's plane (the tip on the prismatic joints
 //! `tool_x` and `tool_y`, springs and dampers from the URDF) under the regenerative cut of
-//! [`models::milling`], Kaliński eqs (11)–(13), and the spindle (revolute `spindle`, driven by torque)
-//! whose instantaneous angle sets which flutes cut and the regenerative delay. The workpiece feeds
-//! at `v_f` along x.
+//! [`models::milling`], Kaliński eqs (11)–(13), and the spindle (revolute `spindle`, driven by
+//! torque) whose instantaneous angle sets which flutes cut and the regenerative delay. The
+//! workpiece feeds at `v_f` along x.
 //!
 //! Each step the cut is evaluated at the step's start from the tool's deflection and the spindle's
 //! angle and speed; its force acts on the tool tip with its stiffness ∂F/∂u (so the chip follows

@@ -4,8 +4,9 @@
 //! Per physics step the machine
 //! - drives each driven wheel through its DC gear motor ([`motor`]),
 //! - integrates every wheel's spin (implicit in the tyre force, which is stiff at low speed),
-//! - applies the tyre forces of `models::platform::tyre` at the contacts as loads on the wheels' links,
-//!   with the static normal loads from the centre of mass and the contacts (`floor_gravity`).
+//! - applies the tyre forces of `models::platform::tyre` at the contacts as loads on the wheels'
+//!   links, with the static normal loads from the centre of mass and the contacts
+//!   (`floor_gravity`).
 //!
 //! The controller measures the wheel encoders (`<wheel>.position`), the motor currents
 //! (`<wheel>.current`) and the desired motion of point H from the path (`path_x`, `path_y`,

@@ -34,6 +34,7 @@ pub const CONTACT_TOLERANCE: f64 = 1e-6;
 pub struct Collision {
     /// The two links or bodies, links first, each in the order of the URDF and the scenario.
     pub a: String,
+    /// The other of the two, the later in that order.
     pub b: String,
     /// How deep the shapes overlap, m.
     pub depth: f64,

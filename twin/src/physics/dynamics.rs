@@ -9,9 +9,9 @@
 //! The link poses and body Jacobians (Jvₖ at the centre of mass, Jωₖ) come from Rapier's
 //! multibodies ([`super::rapier_model`]); everything here works on that snapshot. Q holds the
 //! joint efforts, springs and damping, gravity and process loads, and the velocity-product
-//! (Coriolis and centripetal) forces −Σ Jᵀ·m·J̇·q̇. In the plane an angular velocity is linear in q̇
-//! with constant coefficients, so J̇ω·q̇ = 0 and only the linear parts need the recursion of
-//! [`Dynamics::velocity_products`].
+//! (Coriolis and centripetal) forces −Σ Jᵀ·m·J̇·q̇. In the plane an angular velocity is linear in
+//! q̇ with constant coefficients, so J̇ω·q̇ = 0 and only the linear parts need the recursion of
+//! [`LinkMotion::update`].
 //!
 //! Coordinates are Rapier's: a revolute joint about −z counts its angle about +z (the caller
 //! converts URDF signs at the door).

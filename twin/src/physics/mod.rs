@@ -35,7 +35,8 @@ pub use options::{
 /// Joint coordinates and link motion after a step, in the URDF's conventions.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct MechanismState {
-    /// Per tree joint (as [`Mechanism::joints`]): rad or m, counted along the URDF axis; 0 for fixed.
+    /// Per tree joint (as [`Mechanism::joints`]): rad or m, counted along the URDF axis; 0 for
+    /// fixed.
     pub joint_positions: Vec<f64>,
     /// rad/s or m/s.
     pub joint_velocities: Vec<f64>,
@@ -79,7 +80,9 @@ pub const NO_STIFFNESS: [[f64; 2]; 2] = [[0.0; 2]; 2];
 /// Solver settings a scenario may tune.
 #[derive(Debug, Clone, PartialEq)]
 pub struct SolverSettings {
+    /// Physics step, s.
     pub dt: f64,
+    /// Gravitational acceleration in the world frame [x, y], m/s².
     pub gravity: [f64; 2],
     /// The exact engine's RK4 substeps per step (efforts and loads are held over the whole step).
     pub substeps: usize,
@@ -122,6 +125,7 @@ enum Stepper {
 }
 
 impl Physics {
+    /// The engine `settings` name, holding `mechanism` at rest in its URDF pose (zero coordinates).
     pub fn new(mechanism: &Mechanism, settings: SolverSettings) -> Self {
         let stepper = match settings.solver.engine {
             Engine::Exact => Stepper::Exact(

@@ -1,6 +1,6 @@
-//! The physics' configuration, as a scenario gives it: which engine steps the mechanism (`[solver]`),
-//! the rigid bodies beside the machine (`[[bodies]]`: a clamp, a wall, a workpiece, a box), the
-//! pairs that touch by design (`[[allowed_contacts]]`), and how contacts are resolved
+//! The physics' configuration, as a scenario gives it: which engine steps the mechanism
+//! (`[solver]`), the rigid bodies beside the machine (`[[bodies]]`: a clamp, a wall, a workpiece, a
+//! box), the pairs that touch by design (`[[allowed_contacts]]`), and how contacts are resolved
 //! (`[contact]`, rapier engine only).
 
 use crate::mechanism::{convex_hull, polygon_area, Outline, Pose2, Shape};
@@ -14,6 +14,7 @@ pub const MAX_SUBSTEPS: usize = 64;
 #[derive(Debug, Clone, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields, default)]
 pub struct SolverOptions {
+    /// Which engine steps the mechanism: exact by default.
     pub engine: Engine,
     /// Rapier substeps per physics step.
     pub rapier_substeps: usize,
@@ -82,6 +83,7 @@ impl Default for ContactOptions {
 pub struct BodySpec {
     /// Its name in events and `[[allowed_contacts]]`; distinct from every link's.
     pub name: String,
+    /// Static (fixed in the world) or free (moved by contacts and gravity).
     #[serde(default)]
     pub kind: BodyKind,
     /// Where its frame is: x, y (m) and angle (rad).
@@ -93,6 +95,7 @@ pub struct BodySpec {
     pub mass: Option<f64>,
 }
 
+/// Whether a `[[bodies]]` entry moves.
 #[derive(Debug, Clone, Copy, Default, Deserialize, PartialEq, Eq)]
 #[serde(rename_all = "snake_case")]
 pub enum BodyKind {
@@ -108,9 +111,13 @@ pub enum BodyKind {
 #[derive(Debug, Clone, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct BodyShape {
+    /// A box's full width and height [x, y], m.
     pub size: Option<[f64; 2]>,
+    /// A disc's radius, m.
     pub radius: Option<f64>,
+    /// A convex polygon's corners [x, y], m, each once, in either turning sense.
     pub points: Option<Vec<[f64; 2]>>,
+    /// Where the shape's frame is in the body's: x, y (m) and angle (rad).
     #[serde(default)]
     pub origin: [f64; 3],
 }
@@ -120,7 +127,9 @@ pub struct BodyShape {
 #[derive(Debug, Clone, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct AllowedContact {
+    /// One link or body, by name.
     pub a: String,
+    /// The other link or body, by name; the pair is allowed in either order.
     pub b: String,
     /// Why, for the reader.
     #[serde(default)]
@@ -245,6 +254,8 @@ fn positive(name: &str, values: &[f64]) -> Result<(), String> {
 }
 
 impl SolverOptions {
+    /// Every count between its least (1, or 0 for stabilization) and `MAX_SUBSTEPS`; else
+    /// what is wrong, in the scenario's words.
     pub fn validate(&self) -> Result<(), String> {
         let counts = [
             ("rapier_substeps", self.rapier_substeps, 1),
@@ -268,6 +279,7 @@ impl SolverOptions {
 }
 
 impl ContactOptions {
+    /// Friction ≥ 0 and restitution in [0, 1], both finite; else what is wrong.
     pub fn validate(&self) -> Result<(), String> {
         if !(self.friction.is_finite() && self.friction >= 0.0) {
             return Err(format!(

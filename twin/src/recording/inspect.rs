@@ -37,8 +37,11 @@ pub struct RecordingContents {
 /// A figure layer as read back: its polylines or points and its labels.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct FigureLayer {
+    /// Its line strips, each a list of [x, y] in plot units.
     pub lines: Vec<Vec<[f32; 2]>>,
+    /// Its points' positions [x, y], in plot units.
     pub points: Vec<[f32; 2]>,
+    /// Its points' labels, in the order written.
     pub labels: Vec<String>,
 }
 

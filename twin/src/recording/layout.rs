@@ -48,7 +48,9 @@ pub enum PlotTab {
     Process,
     /// Per actuator, the effort commanded and applied.
     Efforts,
+    /// The joints' positions and velocities.
     Joints,
+    /// The controller's internal signals.
     Controller,
     /// Model checks.
     Diagnostics,
@@ -65,6 +67,7 @@ impl PlotTab {
         PlotTab::Diagnostics,
     ];
 
+    /// The tab's name in the layout, lower case: `tracking`, `process`, ….
     pub fn label(self) -> &'static str {
         match self {
             PlotTab::Tracking => "tracking",
@@ -80,6 +83,7 @@ impl PlotTab {
 /// What a series is to its plot; it sets the series' colour, the same in every plot.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum SeriesRole {
+    /// What the machine should follow: the scenario's reference or the controller's.
     Reference,
     /// The simulated (true) value.
     True,
@@ -89,6 +93,7 @@ pub enum SeriesRole {
     Commanded,
     /// The effort the joint receives.
     Applied,
+    /// Anything else (a controller internal, a diagnostic): a colour from the palette.
     Other,
 }
 
@@ -97,18 +102,22 @@ pub enum SeriesRole {
 pub struct SeriesSpec {
     /// Its name without the unit (the plot adds it).
     pub name: String,
+    /// What it is to the plot, which sets its colour.
     pub role: SeriesRole,
-    /// Index of its SI value in the values passed to [`Recorder::push`].
+    /// Index of its SI value in the values passed to `Recorder::push`.
     pub value: usize,
 }
 
 /// A plot: series of one display unit, on one tab.
 #[derive(Debug, Clone, PartialEq)]
 pub struct PlotSpec {
+    /// The tab it is shown on.
     pub tab: PlotTab,
     /// What is plotted, without the unit.
     pub name: String,
+    /// The display unit of every series on it (values are pushed in SI and converted).
     pub unit: Unit,
+    /// Its series, in the order drawn.
     pub series: Vec<SeriesSpec>,
 }
 

@@ -25,7 +25,7 @@
 //! A recording is never lost, corrupt or half-written: it is written under a temporary name beside
 //! its path and renamed onto it once complete, write failures stop the run with the OS's reason
 //! (see [`Recorder`]), a live viewer streams on a path of its own that cannot fail the file, and
-//! [`salvage`] completes what a killed run left.
+//! [`salvage()`] completes what a killed run left.
 
 mod blueprint;
 mod columns;
@@ -127,14 +127,34 @@ pub enum LiveViewer {
     Spawn,
 }
 
+/// Why a Rerun file could not be recorded, written or read.
 #[derive(Debug, thiserror::Error)]
 pub enum RecordingError {
+    /// The file cannot be started (its path is a directory, its folder is missing or not
+    /// writable), or its layout or the live viewer cannot be set up.
     #[error("cannot create the recording {}: {reason}", path.display())]
-    Create { path: PathBuf, reason: String },
+    Create {
+        /// The recording's path.
+        path: PathBuf,
+        /// What failed, as the file system or the viewer said.
+        reason: String,
+    },
+    /// Writing to the file, or moving the finished file into place, failed.
     #[error("cannot write the recording {}: {reason}", path.display())]
-    Write { path: PathBuf, reason: String },
+    Write {
+        /// The recording's path.
+        path: PathBuf,
+        /// What the file system or the encoder said.
+        reason: String,
+    },
+    /// The file cannot be opened or decoded as a Rerun recording.
     #[error("cannot read the recording {}: {reason}", path.display())]
-    Read { path: PathBuf, reason: String },
+    Read {
+        /// The recording's path.
+        path: PathBuf,
+        /// What the file system or the decoder said.
+        reason: String,
+    },
 }
 
 /// How a finished recording went.

@@ -7,7 +7,7 @@ use super::*;
 /// (`X.rrd.<random>.part`), which [`Recorder::finish`] completes and renames onto `path`. A file at
 /// `path` is therefore always a complete recording; on an error, or when the recorder is dropped
 /// without `finish` (a panic), the temporary file is removed. A run killed outright (`kill -9`)
-/// leaves it behind, and [`salvage`] makes a complete recording of it.
+/// leaves it behind, and [`salvage()`] makes a complete recording of it.
 ///
 /// Samples are buffered and sent in columns. A failed write to the file (disk full, quota, file
 /// size limit) is returned, with the OS's reason, by the next [`Recorder::push`] or
@@ -130,11 +130,11 @@ impl Recorder {
     }
 
     /// Buffers one sample: step index, simulated time (s), every link's world pose (in the order of
-    /// `layout.links`, then the bodies' in the order of `layout.bodies`), the SI values the plots' series pick from and the scene markers'
-    /// positions (in the order of `layout.scene.markers`). Values are recorded in their plot's
-    /// unit (NaN and infinities included); missing ones are recorded as NaN. A missing or
-    /// non-finite pose or marker position is left out, so it stays drawn at its last finite
-    /// place. A non-finite time is replaced by the last finite one.
+    /// `layout.links`, then the bodies' in the order of `layout.bodies`), the SI values the plots'
+    /// series pick from and the scene markers' positions (in the order of `layout.scene.markers`).
+    /// Values are recorded in their plot's unit (NaN and infinities included); missing ones are
+    /// recorded as NaN. A missing or non-finite pose or marker position is left out, so it stays
+    /// drawn at its last finite place. A non-finite time is replaced by the last finite one.
     ///
     /// Fails once a write to the file has failed (with the OS's reason): the run should stop, as
     /// the rest of it could not be recorded.

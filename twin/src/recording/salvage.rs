@@ -1,6 +1,6 @@
-//! Recovering what a killed run left: the `.part` file of a recorder that never finished (`kill -9`,
-//! power loss) holds a valid `.rrd` stream up to some point, but no footer, and may end in a torn
-//! message. Rerun's tools read such a stream but `rerun rrd verify` rejects it.
+//! Recovering what a killed run left: the `.part` file of a recorder that never finished (`kill
+//! -9`, power loss) holds a valid `.rrd` stream up to some point, but no footer, and may end in a
+//! torn message. Rerun's tools read such a stream but `rerun rrd verify` rejects it.
 
 use std::fs::File;
 use std::io::{BufReader, Read, Seek, SeekFrom};
@@ -64,7 +64,7 @@ impl SalvageReport {
 
 /// Reads the `.rrd` stream in `part` message by message, stops cleanly at the first incomplete or
 /// corrupt one, and writes what came before as a complete recording (with footer) to `out`,
-/// atomically (through a temporary file beside it, like [`super::Recorder`]). `part` may also be a
+/// atomically (through a temporary file beside it, like `Recorder`). `part` may also be a
 /// complete recording, or `out` itself. Fails, naming `part`, when it holds no Rerun message.
 pub fn salvage(part: &Path, out: &Path) -> Result<SalvageReport, RecordingError> {
     let read_error = |reason: String| RecordingError::Read {

@@ -21,17 +21,22 @@ use super::{error_chain, RecordingError};
 pub struct Histogram {
     /// Title, with the unit if known.
     pub name: String,
-    /// Left edge of each bin, and the common width.
+    /// Left edge of each bin, in the metric's unit.
     pub left_edges: Vec<f64>,
+    /// The bins' common width, in the metric's unit.
     pub width: f64,
+    /// Runs in each bin (whole numbers, as the bar chart takes them).
     pub counts: Vec<f64>,
 }
 
 /// One metric against one parameter.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Scatter {
+    /// The view's title.
     pub name: String,
+    /// The parameter's name, written under the x axis.
     pub x_label: String,
+    /// The metric's name, written beside the y axis.
     pub y_label: String,
     /// (parameter, metric) of each successful run.
     pub points: Vec<[f64; 2]>,
@@ -42,9 +47,13 @@ pub struct Scatter {
 /// The study's plots as plain data.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct StudyPlots {
+    /// The recording's name and application id.
     pub title: String,
+    /// The study's report, shown as text beside the plots.
     pub notes: String,
+    /// One per metric.
     pub histograms: Vec<Histogram>,
+    /// One per swept parameter and metric.
     pub scatters: Vec<Scatter>,
 }
 

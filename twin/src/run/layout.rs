@@ -131,14 +131,17 @@ impl SignalLayout {
         self.signals.iter().position(|s| s == name)
     }
 
+    /// Index among [`SignalLayout::actuators`] of the actuator at `joint` (or so named).
     pub fn actuator(&self, joint: &str) -> Option<usize> {
         self.actuators.iter().position(|s| s == joint)
     }
 
+    /// Index of a controller internal by name.
     pub fn internal(&self, name: &str) -> Option<usize> {
         self.internals.iter().position(|s| s == name)
     }
 
+    /// Index of a diagnostic by name.
     pub fn diagnostic(&self, name: &str) -> Option<usize> {
         self.diagnostics.iter().position(|s| s == name)
     }

@@ -47,22 +47,29 @@ use thiserror::Error;
 /// recording or observer).
 #[derive(Debug, Error)]
 pub enum TwinError {
+    /// The scenario cannot be found, read or checked, or an override does not apply.
     #[error(transparent)]
     Scenario(#[from] ScenarioError),
+    /// The scenario's URDF cannot be read or makes no planar mechanism.
     #[error(transparent)]
     Urdf(#[from] UrdfError),
     /// A machine's checks cover the scenario's `[process]` table and the URDF's geometry: both
     /// files are named.
     #[error("{scenario} (URDF {urdf}): {source}")]
     Machine {
+        /// Where the scenario came from.
         scenario: String,
+        /// The URDF's path or built-in name.
         urdf: String,
+        /// What the machine found wrong.
         source: MachineError,
     },
     /// A controller's parameters are the scenario's; its plant check also concerns the URDF.
     #[error("{context}: {source}")]
     Controller {
+        /// The scenario and its URDF, e.g. `<scenario> (URDF <urdf>)`.
         context: String,
+        /// What the controller found wrong.
         source: ControllerError,
     },
     /// The plant's signals come from the URDF (its joints) and the machine: both files are named.
@@ -70,9 +77,13 @@ pub enum TwinError {
         "{source_name} (URDF {urdf}): sensors.\"{signal}\": no such measured signal (known: {known})"
     )]
     UnknownSensor {
+        /// Where the scenario came from.
         source_name: String,
+        /// The URDF's path or built-in name.
         urdf: String,
+        /// The `[sensors]` key that names no plant signal.
         signal: String,
+        /// The plant's signals, comma-separated.
         known: String,
     },
     /// A `[[metrics]]`, `[[faults]]` or `[plant]` entry names a signal, actuator, link or joint
@@ -80,10 +91,14 @@ pub enum TwinError {
     /// are named; `reason` names the entry).
     #[error("{source_name} (URDF {urdf}): {reason}")]
     Binding {
+        /// Where the scenario came from.
         source_name: String,
+        /// The URDF's path or built-in name.
         urdf: String,
+        /// What is wrong, naming the entry.
         reason: String,
     },
+    /// The run's recording could not be created or written.
     #[error(transparent)]
     Recording(#[from] RecordingError),
     /// A caller's observer failed; the run stopped.

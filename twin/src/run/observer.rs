@@ -12,9 +12,11 @@ pub type ObserverError = Box<dyn std::error::Error + Send + Sync>;
 /// One step of a run, read-only. Slices follow the [`SignalLayout`]'s lists.
 #[derive(Debug, Clone, Copy)]
 pub struct StepView<'a> {
+    /// Physics step index: 0 at the start, time = step·dt.
     pub step: usize,
     /// Simulated time, s.
     pub time: f64,
+    /// The names behind every slice here, the same at every step.
     pub layout: &'a SignalLayout,
     /// Every joint's position and velocity, every link's pose, the loop gaps.
     pub state: &'a MechanismState,
@@ -67,12 +69,16 @@ pub struct Findings {
 /// (step 0 included, after the efforts of the step are known) and `finish` once at the end, also
 /// after a divergence or an interruption. An error from any of them stops the run.
 pub trait Observer {
+    /// Called once before step 0, with the run's names; does nothing unless implemented.
     fn start(&mut self, _layout: &SignalLayout) -> Result<(), ObserverError> {
         Ok(())
     }
 
+    /// Called at every physics step with what the step holds.
     fn observe(&mut self, view: &StepView) -> Result<(), ObserverError>;
 
+    /// Called once after the last step; hands back metrics and warnings for the summary (none
+    /// unless implemented).
     fn finish(&mut self) -> Result<Findings, ObserverError> {
         Ok(Findings::default())
     }

@@ -20,18 +20,34 @@ const SAME_VALUE: f64 = 1e-9;
 pub enum LinearizeError {
     /// The operating time is not in the run.
     #[error("{at} s: {reason}")]
-    At { at: f64, reason: String },
+    At {
+        /// The operating time asked for, s.
+        at: f64,
+        /// What is wrong with it: not finite, negative or past the scenario's duration.
+        reason: String,
+    },
+    /// The scenario could not be bound or the run up to the operating time failed.
     #[error(transparent)]
     Twin(#[from] TwinError),
+    /// The run diverged or crashed before reaching the operating time.
     #[error("the run diverged before the operating time {at} s: {failure}")]
-    Diverged { at: f64, failure: Divergence },
+    Diverged {
+        /// The operating time asked for, s.
+        at: f64,
+        /// Where and why the run failed.
+        failure: Divergence,
+    },
     /// A machine whose actuators are not joints (driven wheels with their own spin states).
     #[error("{scenario}: machine `{machine}` drives {actuators} through states of its own (not joints), which a linear model of the mechanism lacks")]
     OwnActuators {
+        /// Where the scenario came from.
         scenario: String,
+        /// The machine kind, e.g. `platform`.
         machine: String,
+        /// The machine's own actuators, comma-separated.
         actuators: String,
     },
+    /// The Jacobians at the operating point make no model.
     #[error(transparent)]
     Model(#[from] ModelError),
 }

@@ -16,28 +16,57 @@ use thiserror::Error;
 /// Why a step was refused or failed.
 #[derive(Debug, Error)]
 pub enum StepError {
+    /// [`Simulator::step`] was given a number of efforts other than one per actuator.
     #[error("efforts: {given} values given for {expected} actuators ({names}); give one per actuator in that order")]
     Length {
+        /// Efforts given.
         given: usize,
+        /// Actuators the plant has.
         expected: usize,
+        /// The actuators, comma-separated, in the order the efforts go.
         names: String,
     },
+    /// An effort given to [`Simulator::step`] is NaN or infinite.
     #[error("effort of actuator `{actuator}` is {value}: must be a finite number")]
-    NotFinite { actuator: String, value: f64 },
+    NotFinite {
+        /// The actuator's joint.
+        actuator: String,
+        /// The value given.
+        value: f64,
+    },
+    /// The plant diverged or crashed, in this period or an earlier one: every step is refused
+    /// until a reset.
     #[error("the plant diverged at step {} (t = {} s): {} = {}; reset it", .0.step, .0.time, .0.signal, .0.value)]
     Diverged(Divergence),
+    /// [`Simulator::step_closed_loop`] was given a number of disturbances other than one per
+    /// movable joint.
     #[error("disturbances: {given} values given for {expected} joints ({names}); give one per joint in that order")]
     Disturbances {
+        /// Disturbances given.
         given: usize,
+        /// Movable joints the plant has.
         expected: usize,
+        /// The movable joints, comma-separated, in the order the disturbances go.
         names: String,
     },
+    /// A disturbance or reference offset given to [`Simulator::step_closed_loop`] is NaN or
+    /// infinite.
     #[error("{input} is {value}: must be a finite number")]
-    NotFiniteInput { input: String, value: f64 },
+    NotFiniteInput {
+        /// Which input: the disturbance's joint or the reference offset's component.
+        input: String,
+        /// The value given.
+        value: f64,
+    },
+    /// [`Simulator::step`] was called on a simulator whose controller commands the efforts;
+    /// holds the controller's name.
     #[error("the simulator runs its controller `{0}`, which commands the efforts; step it with step_closed_loop")]
     ControllerInLoop(String),
+    /// [`Simulator::step_closed_loop`] was called on a simulator made without its controller.
     #[error("the simulator has no controller (Simulator::new); step it with step(efforts), or make it with Simulator::with_controller")]
     NoController,
+    /// A non-zero reference offset was given where the reference cannot take one; holds why
+    /// (see [`Simulator::reference_inputs`]).
     #[error("reference offset: {0}; leave it at zero")]
     NoReference(&'static str),
 }
@@ -141,8 +170,8 @@ impl Simulator {
 
     /// One control period with `efforts` (one per actuator, in [`Simulator::actuators`]' order,
     /// SI, in [`Simulator::command_units`]: N, N·m, or A where a drive takes a current) held,
-    /// clipped to [`Simulator::command_limits`] as in a run; the measured signals at its end. After a
-    /// divergence every step is refused until a reset.
+    /// clipped to [`Simulator::command_limits`] as in a run; the measured signals at its end. After
+    /// a divergence every step is refused until a reset.
     pub fn step(&mut self, efforts: &[f64]) -> Result<&[f64], StepError> {
         if self.registry.is_some() {
             return Err(StepError::ControllerInLoop(self.controller().into()));

@@ -8,12 +8,15 @@ use std::fmt::Write as _;
 /// Why a run stopped early: the first signal that left its bounds, or the first crash.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Divergence {
+    /// The physics step at which it was found.
     pub step: usize,
+    /// Simulated time of that step, s.
     pub time: f64,
     /// The signal, or for a crash `collision <a>/<b>`.
     pub signal: String,
     /// The signal's value, or for a crash the depth of the overlap, m.
     pub value: f64,
+    /// A signal out of bounds or a crash.
     pub kind: FailureKind,
 }
 
@@ -52,8 +55,9 @@ impl std::fmt::Display for Divergence {
 pub struct Interruption {
     /// The signal number that asked for the stop (2: SIGINT, 15: SIGTERM).
     pub signal: usize,
-    /// The last step simulated and recorded, and its time, s.
+    /// The last step simulated and recorded.
     pub step: usize,
+    /// Simulated time of that step, s.
     pub time: f64,
 }
 
@@ -75,13 +79,22 @@ impl std::fmt::Display for Interruption {
 /// What a run reports.
 #[derive(Debug, Clone, PartialEq)]
 pub struct RunSummary {
+    /// The scenario's name.
     pub scenario: String,
+    /// The controller's registry name.
     pub controller: String,
+    /// Physics step, s.
     pub dt: f64,
+    /// Index of the last physics step (steps taken after the initial one).
     pub steps: usize,
+    /// Wall-clock time spent stepping, s.
     pub wall_s: f64,
+    /// Physics steps per wall-clock second.
     pub steps_per_s: f64,
+    /// Figures by name: the machine's, the observers' and the contacts' (SI unless the name
+    /// says otherwise).
     pub metrics: Vec<(String, f64)>,
+    /// Set when the run diverged or crashed before its end.
     pub failure: Option<Divergence>,
     /// Set when the run was stopped on request before its end.
     pub interrupted: Option<Interruption>,
@@ -92,6 +105,7 @@ pub struct RunSummary {
 }
 
 impl RunSummary {
+    /// A metric's value by name (the first one so named).
     pub fn metric(&self, name: &str) -> Option<f64> {
         self.metrics
             .iter()

@@ -18,6 +18,7 @@ const MAX_SET_KEY_SEGMENTS: usize = 8;
 pub struct Overrides {
     /// Another controller: the scenario's controller parameters are dropped (defaults apply).
     pub controller: Option<String>,
+    /// Another simulated time, s, in place of the scenario's `duration`.
     pub duration: Option<f64>,
     /// `key=value` with a dotted key into the TOML, e.g. `controller.params.crank_speed=-3`;
     /// applied last.

@@ -17,7 +17,7 @@
 //! | `spectrum_peak` | largest amplitude of e's one-sided amplitude spectrum within `frequencies = [low, high]` Hz (default: all), see the run's spectrum | scale·unit of x |
 //! | `spectrum_peak_frequency` | the frequency of that peak | Hz |
 //!
-//! Signals are named as in the run's run's signal layout: a plant signal by its name is its true
+//! Signals are named as in the run's signal layout: a plant signal by its name is its true
 //! value (`ram_position`, `table.position`, `reference`); `measured/<signal>` is what the
 //! controller measured (sampled only at control updates); `controller/<internal>`,
 //! `diagnostics/<name>`, `effort/commanded/<joint>`, `effort/applied/<joint>`, and
@@ -32,6 +32,7 @@ use serde::{Deserialize, Serialize};
 pub struct MetricSpec {
     /// The figure's name in the summary.
     pub name: String,
+    /// Which figure of the judged value over the window.
     pub kind: MetricKind,
     /// The signal judged (see the module's naming).
     pub signal: String,
@@ -58,19 +59,33 @@ fn unit_scale() -> f64 {
     1.0
 }
 
+/// What figure a metric takes of its judged value (the signal, or `reference − signal`, times
+/// `scale`) over its window's samples.
 #[derive(Debug, Clone, Copy, Deserialize, Serialize, PartialEq, Eq)]
 #[serde(rename_all = "snake_case")]
 pub enum MetricKind {
+    /// Mean square, in the judged value's unit squared.
     Mse,
+    /// Root mean square.
     Rms,
+    /// Arithmetic mean of the samples.
     Mean,
+    /// Population standard deviation (about the window's mean).
     Std,
+    /// Largest |value|.
     MaxAbs,
+    /// Largest value.
     Max,
+    /// Smallest value.
     Min,
+    /// The last sample's value.
     Final,
+    /// Time from the window's start until |value| entered `band` for good, s; NaN if it ends
+    /// outside.
     SettleTime,
+    /// Largest amplitude of the one-sided spectrum within `frequencies`.
     SpectrumPeak,
+    /// Frequency of that largest amplitude, Hz.
     SpectrumPeakFrequency,
 }
 

@@ -26,28 +26,63 @@ use serde::Deserialize;
 use std::collections::BTreeMap;
 use thiserror::Error;
 
+/// Why a scenario could not be found, read, changed or checked.
 #[derive(Debug, Error, Clone, PartialEq)]
 pub enum ScenarioError {
+    /// A name that is neither a built-in scenario nor a `.toml` file.
     #[error("unknown scenario `{name}` (built in: {known}; or give a .toml file)")]
-    Unknown { name: String, known: String },
+    Unknown {
+        /// The name given.
+        name: String,
+        /// The built-in scenarios' names, comma-separated.
+        known: String,
+    },
+    /// The scenario file or its URDF cannot be read.
     #[error("{file}: cannot read: {reason}")]
-    Read { file: String, reason: String },
+    Read {
+        /// The file's path.
+        file: String,
+        /// What the file system said.
+        reason: String,
+    },
+    /// The scenario is not valid TOML, fails a check, names no URDF found, or its controller
+    /// refuses its parameters.
     #[error("{file}: {reason}")]
-    Invalid { file: String, reason: String },
+    Invalid {
+        /// Where the scenario came from.
+        file: String,
+        /// What is wrong, naming the key.
+        reason: String,
+    },
+    /// A command line `--set key=value` is malformed or cannot be applied.
     #[error("--set {assignment}: {reason}")]
-    BadSet { assignment: String, reason: String },
+    BadSet {
+        /// The assignment as given (shortened).
+        assignment: String,
+        /// What is wrong with it.
+        reason: String,
+    },
+    /// A typed change (`set`, `seed`, `metric`) cannot be applied to the scenario's TOML.
     #[error("scenario key `{key}`: {reason}")]
-    BadKey { key: String, reason: String },
+    BadKey {
+        /// The dotted key (shortened).
+        key: String,
+        /// What is wrong with it.
+        reason: String,
+    },
 }
 
 /// Default cap on physics steps per run (`max_steps`): about a minute of the fastest machine,
 /// and a recording of a few GB at `recording.every = 1`.
 pub const DEFAULT_MAX_STEPS: usize = 10_000_000;
 
+/// A scenario as its TOML gives it (see the module doc); [`LoadedScenario`] is one checked.
 #[derive(Debug, Clone, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct Scenario {
+    /// The scenario's name, as the run's summary gives it.
     pub name: String,
+    /// What the scenario shows, for the reader.
     #[serde(default)]
     pub description: String,
     /// Machine kind: `whitworth`, ….
@@ -60,6 +95,7 @@ pub struct Scenario {
     pub dt: f64,
     /// Controller period, s; a whole multiple of dt (zero-order hold). Defaults to dt.
     pub control_period: Option<f64>,
+    /// Gravitational acceleration in the world frame [x, y], m/s² (default [0, −9.81]).
     #[serde(default = "default_gravity")]
     pub gravity: [f64; 2],
     /// RK4 substeps per physics step (efforts and process loads are held over the step).
@@ -71,8 +107,10 @@ pub struct Scenario {
     /// Seed of the sensor noise.
     #[serde(default)]
     pub seed: u64,
+    /// The controller and its parameters (`[controller]`).
     pub controller: ControllerSpec,
-    /// Reference given to the controller as `reference`, `reference_rate`, `reference_acceleration`.
+    /// Reference given to the controller as `reference`, `reference_rate`,
+    /// `reference_acceleration`.
     pub reference: Option<Reference>,
     /// Machine-specific process parameters (contact forces, geometry checks).
     #[serde(default)]
@@ -80,8 +118,10 @@ pub struct Scenario {
     /// Sensor models by measured signal name.
     #[serde(default)]
     pub sensors: BTreeMap<String, SensorSpec>,
+    /// What the recording samples (`[recording]`).
     #[serde(default)]
     pub recording: RecordingOptions,
+    /// The bounds beyond which the run is declared diverged (`[health]`).
     #[serde(default)]
     pub health: HealthLimits,
     /// The figures the run is judged by (`[[metrics]]`), computed by evaluators.
@@ -95,7 +135,7 @@ pub struct Scenario {
     /// the URDF's zero), such as a spindle already at speed when the cut begins.
     #[serde(default)]
     pub initial: BTreeMap<String, InitialJoint>,
-    /// Injected faults (`[[faults]]`), see [`crate::faults`].
+    /// Injected faults (`[[faults]]`), see the `faults` module.
     #[serde(default)]
     pub faults: Vec<FaultSpec>,
     /// The engine that steps the mechanism and its settings (`[solver]`).
@@ -117,18 +157,24 @@ pub struct Scenario {
 #[derive(Debug, Clone, Copy, Default, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields, default)]
 pub struct InitialJoint {
+    /// Joint coordinate, rad or m.
     pub position: f64,
+    /// Joint rate, rad/s or m/s.
     pub velocity: f64,
 }
 
+/// `[controller]`: which controller runs the machine and with what parameters.
 #[derive(Debug, Clone, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct ControllerSpec {
+    /// The controller's registry name, e.g. `crank-pi`.
     pub name: String,
+    /// Its parameters (`[controller.params]`), typed and checked by the controller when built.
     #[serde(default)]
     pub params: toml::Table,
 }
 
+/// `[recording]`: how densely the run is recorded.
 #[derive(Debug, Clone, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields, default)]
 pub struct RecordingOptions {
@@ -179,11 +225,13 @@ fn default_max_steps() -> usize {
 /// A scenario ready to run: parsed, checked, its controller built from its checked parameters,
 /// with its text (for provenance) and its URDF text.
 pub struct LoadedScenario {
+    /// The scenario, checked.
     pub scenario: Scenario,
     /// The TOML as run: the text as written, or re-serialised after changes (`set`, `--set`).
     pub toml: String,
     /// Where the scenario came from, for messages.
     pub source: String,
+    /// The URDF's text, as read from its file or the built-in copy.
     pub urdf_text: String,
     /// The URDF's path or built-in name, for messages.
     pub urdf_source: String,
@@ -203,6 +251,7 @@ impl std::fmt::Debug for LoadedScenario {
 }
 
 impl Scenario {
+    /// Controller period, s: `control_period`, or dt when not given.
     pub fn control_period(&self) -> f64 {
         self.control_period.unwrap_or(self.dt)
     }
@@ -212,6 +261,7 @@ impl Scenario {
         (self.control_period() / self.dt).round() as usize
     }
 
+    /// Physics steps in the run: duration / dt, rounded.
     pub fn steps(&self) -> usize {
         (self.duration / self.dt).round() as usize
     }

@@ -1,9 +1,10 @@
 //! The shaper's cutting process: the contact force of Perrusquía eq (40) and the figures a
 //! cutting run is judged by (velocity over the workpiece, stroke times, quick-return ratio).
 //!
-//! The workpiece sits where Algorithm 1 puts it: `[x_a, x_b]` of Perrusquía eqs (4)–(5) on the linkage's
-//! stroke, entered at x_a. While the ram moves the cutting way inside it, the tool meets the
-//! contact force, of constant magnitude, against the motion (Perrusquía eq (40): 400 N up while ẏ < 0).
+//! The workpiece sits where Algorithm 1 puts it: `[x_a, x_b]` of Perrusquía eqs (4)–(5) on the
+//! linkage's stroke, entered at x_a. While the ram moves the cutting way inside it, the tool meets
+//! the contact force, of constant magnitude, against the motion (Perrusquía eq (40): 400 N up while
+//! ẏ < 0).
 
 use models::velocity_profile::{ProfileParams, VelocityProfile};
 use models::whitworth::Geometry;
