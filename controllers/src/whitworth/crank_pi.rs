@@ -52,6 +52,17 @@ pub struct PiGains {
 }
 
 /// Pole placement for `J·ω̇ = τ` under PI control.
+///
+/// # Example
+///
+/// ```
+/// use controllers::whitworth::crank_pi::{design, CrankPiParams};
+///
+/// // J = 0.5 kg·m², ω_n = 40 rad/s, ζ = 1: K_p = 2ζω_n·J, K_i = ω_n²·J.
+/// let gains = design(&CrankPiParams::default())?;
+/// assert_eq!((gains.kp, gains.ki), (40.0, 800.0));
+/// # Ok::<(), framework::ControllerError>(())
+/// ```
 pub fn design(params: &CrankPiParams) -> Result<PiGains, ControllerError> {
     let inertia = positive(NAME, "inertia", params.inertia)?;
     let wn = positive(NAME, "natural_frequency", params.natural_frequency)?;

@@ -110,6 +110,22 @@ pub enum TwinError {
 pub type StopFlag = std::sync::Arc<std::sync::atomic::AtomicUsize>;
 
 /// A scenario bound to its mechanism, machine and controller, ready to run.
+///
+/// # Example
+///
+/// A built-in scenario, shortened, run under its own controller without a recording:
+///
+/// ```
+/// use twin::{Scenario, Twin};
+///
+/// let scenario = Scenario::builtin("whitworth-crank-pi")?
+///     .duration(0.2)
+///     .build(&controllers::builtin())?;
+/// let summary = Twin::new(scenario)?.run(None)?;
+/// assert!(summary.failure.is_none());
+/// assert_eq!(summary.steps, 200); // 0.2 s at the scenario's 1 ms step
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 pub struct Twin {
     loaded: LoadedScenario,
     mechanism: Mechanism,

@@ -73,6 +73,22 @@ pub enum StepError {
 
 /// The twin's scenario stepped from outside: its plant alone ([`Simulator::new`]) or its closed
 /// loop with its controller ([`Simulator::with_controller`]).
+///
+/// # Example
+///
+/// The feed axis's plant, its controller left out, pushed by a constant motor force:
+///
+/// ```
+/// use twin::{Scenario, Simulator};
+///
+/// let loaded = Scenario::builtin("feed-axis-micromilling")?.build(&controllers::builtin())?;
+/// let mut plant = Simulator::new(loaded)?;
+/// let force = vec![0.5; plant.actuators().len()]; // N, held over one control period
+/// let measured = plant.step(&force)?.to_vec();
+/// assert_eq!(measured.len(), plant.signal_specs().len());
+/// assert!(plant.time() > 0.0);
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 pub struct Simulator {
     /// The scenario as loaded, without its controller, to build the plant again on a reset.
     recipe: LoadedScenario,

@@ -39,6 +39,27 @@ pub fn load(
 
 /// A scenario being put together: a built-in or file scenario's TOML plus typed changes; checked
 /// as a whole (the same checks as a TOML file) by `build`.
+///
+/// # Example
+///
+/// ```
+/// use twin::Scenario;
+///
+/// let registry = controllers::builtin();
+/// // Changed through typed values; the whole is checked as a TOML file would be.
+/// let loaded = Scenario::builtin("feed-axis-micromilling")?
+///     .duration(0.5)
+///     .set("controller.params.mass_estimate", 12.0)?
+///     .build(&registry)?;
+/// assert_eq!(loaded.scenario.duration, 0.5);
+///
+/// // A parameter the controller does not have is refused, by name.
+/// let refused = Scenario::builtin("feed-axis-micromilling")?
+///     .set("controller.params.no_such_gain", 1.0)
+///     .and_then(|builder| builder.build(&registry));
+/// assert!(refused.unwrap_err().to_string().contains("no_such_gain"));
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 #[derive(Debug, Clone)]
 pub struct ScenarioBuilder {
     table: toml::Table,
