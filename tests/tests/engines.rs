@@ -1,4 +1,4 @@
-//! The exact and the rapier engine side by side (README, *Engines*): every built-in Whitworth,
+//! The exact and the rapier engine side by side (the guide, *The engines*): every built-in Whitworth,
 //! arm and platform scenario runs on both and their headline figures agree within the bounds
 //! measured there; the rapier engine's loop gaps and passive energy; the platform striking a
 //! free box keeps momentum and gains no energy; an unknown engine is a one-line error.
@@ -8,7 +8,7 @@ use twin::{Observer, ObserverError, RunSummary, StepView};
 use twin_tests::{builtin, refusal, run, Configure};
 
 /// Per scenario: its headline figures and how far the rapier engine's may lie from the exact
-/// engine's (relative), about twice the difference measured (README, *Engines*).
+/// engine's (relative), about twice the difference measured (the guide, *The engines*).
 const AGREEMENT: &[(&str, &[(&str, f64)])] = &[
     (
         "whitworth-crank-pi",

@@ -2,8 +2,8 @@
 //! and MuJoCo's loader, which also rejects physically impossible inertia tensors. The twin's
 //! extensions (`<loop_joint>`, `<wheel>`, `<spring>`) are elements both ignore.
 //!
-//! The tools come from `scripts/test-tools` (the README's test command runs it); a missing tool
-//! fails the test, it is not skipped.
+//! The tools come from `scripts/test-tools` (`scripts/test`, the README's test command, runs it);
+//! a missing tool fails the test, it is not skipped.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;

@@ -15,7 +15,7 @@ fn simulated_ram_follows_the_analytic_kinematics_over_whole_turns() {
     let ram_error = summary.metric("ram_model_error_max").unwrap();
     let loop_error = summary.metric("loop_closure_error_max").unwrap();
     println!("ram error vs y(q): {ram_error:.3e} m, loop closure: {loop_error:.3e} m");
-    // The loop closures are projected exactly every step (README, engine).
+    // The loop closures are projected exactly every step (the guide, *The engines*).
     assert!(
         ram_error <= 1e-9,
         "ram error {ram_error:e} m over {turns} turns"

@@ -65,7 +65,7 @@ fn arm_crash_reports_the_hand_hitting_the_clamp_when_and_how_deep() {
     assert!(summary.failure.is_none(), "{:?}", summary.failure);
     let (time, a, b, depth) = &crashes.seen[0];
     assert_eq!((a.as_str(), b.as_str()), ("hand", "clamp"));
-    // During the approach, as the head swoops over the part (README, arm-crash).
+    // During the approach, as the head swoops over the part (the guide's arm chapter, arm-crash).
     assert!((1.4..1.55).contains(time), "{time}");
     assert!(*depth > 1e-6 && *depth < 1e-3, "{depth}");
     assert!(crashes

@@ -74,8 +74,8 @@ pub struct MillingCutParams {
 }
 
 impl Default for MillingCutParams {
-    /// Full-immersion slotting of aluminium with a two-flute Ø16 mm ball-end mill (README,
-    /// milling model notes).
+    /// Full-immersion slotting of aluminium with a two-flute Ø16 mm ball-end mill (the guide's
+    /// milling chapter).
     fn default() -> Self {
         Self {
             flutes: 2,

@@ -9,7 +9,7 @@
 //! s = [r3, θ3, θ4, y] (block distance along the slot, slot angle, coupler angle, ram height).
 //! The paper attaches the coupler at r3 + AB along the slot (Perrusquía eq (B.1)); the twin pins it
 //! to the slotted link at a fixed distance, the classical layout, because the printed dimensions
-//! cannot close the loop over a full crank turn (see the README's model notes).
+//! cannot close the loop over a full crank turn (see the guide's Whitworth chapter).
 
 pub mod dynamics;
 

@@ -47,7 +47,7 @@ pub enum Command {
     Analyze(analysis::AnalyzeArgs),
     /// Measure a frequency response (a tap test or shaker test on the twin): frf.csv and frf.rrd.
     Frf(frf::FrfArgs),
-    /// Turn what a killed run left (X.rrd.<random>.part) into a complete recording.
+    /// Turn what a killed run left (`X.rrd.<random>.part`) into a complete recording.
     Salvage(salvage::SalvageArgs),
     /// Linearise a scenario's plant at an operating point: A, B, C, D, their zero-order hold at
     /// the control period and the poles, into OUT_DIR/linear.json.

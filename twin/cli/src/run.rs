@@ -28,7 +28,7 @@ pub struct RunArgs {
     /// Simulated time, s.
     #[arg(long, allow_hyphen_values = true)]
     pub duration: Option<f64>,
-    /// Recording to write (default: <scenario>.rrd in the current folder).
+    /// Recording to write (default: `<scenario>.rrd` in the current folder).
     #[arg(long)]
     pub out: Option<PathBuf>,
     /// Also write the summary as JSON to this file.

@@ -30,8 +30,8 @@ pub struct SweepArgs {
     /// switches controllers); grid axes span a Cartesian product, the last varying fastest.
     #[arg(long = "grid", value_name = "KEY=VALUES")]
     pub grid: Vec<String>,
-    /// A random axis: KEY=normal(m,sd[,lo,hi]) | uniform(a,b) | lognormal(mu,sigma[,lo,hi]);
-    /// URDF values too (urdf.link.<link>.mass, urdf.joint.<joint>.damping, …).
+    /// A random axis: `KEY=normal(m,sd[,lo,hi])` | `uniform(a,b)` | `lognormal(mu,sigma[,lo,hi])`;
+    /// URDF values too (`urdf.link.<link>.mass`, `urdf.joint.<joint>.damping`, …).
     #[arg(long = "random", value_name = "KEY=DISTRIBUTION")]
     pub random: Vec<String>,
     /// Runs per grid point (random draws per point).
@@ -49,7 +49,7 @@ pub struct SweepArgs {
     /// The study's folder.
     #[arg(long, default_value = "study")]
     pub out: PathBuf,
-    /// Which runs keep their recording (OUT/recordings/<index>.rrd).
+    /// Which runs keep their recording (`OUT/recordings/<index>.rrd`).
     #[arg(long, value_enum, default_value = "none")]
     pub record: RecordMode,
     /// Skip the runs whose result OUT already holds (a killed study goes on where it stopped).

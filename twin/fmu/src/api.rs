@@ -1,7 +1,7 @@
 //! The 34 `fmi2*` functions of FMI 2.0 co-simulation (FMI 2.0.4 §2.1, §4.2), C ABI. Every entry
 //! catches panics (fmi2Fatal) and logs each refusal through the host's logger before returning
 //! fmi2Error; what this FMU does not support (derivatives, asynchronous steps) is refused the
-//! same way. An FMU state (§2.1.8) is a [`State`] on the heap, owned by the host until freed.
+//! same way. An FMU state (§2.1.8) is a `State` on the heap, owned by the host until freed.
 #![allow(non_snake_case, non_camel_case_types, clippy::missing_safety_doc)]
 
 use crate::instance::{Instance, Phase};

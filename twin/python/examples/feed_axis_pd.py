@@ -1,5 +1,5 @@
 """A PD law written in Python drives the linear-motor feed axis under the micro-milling cut, beside
-the paper's P-PI baseline built into the twin (README: "Using the twin from Python").
+the paper's P-PI baseline built into the twin (the guide, docs/src/python.md).
 
     python twin/python/examples/feed_axis_pd.py [--duration 25]
 

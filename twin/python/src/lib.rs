@@ -1,6 +1,6 @@
 //! The twin from Python (`twin._twin`, wrapped by the `twin` package in `python/twin`):
-//! scenarios run to NumPy arrays ([`scenario`]), the plant stepped from a Python loop
-//! ([`simulator`]), Python controllers ([`controller`]). Every Rust error becomes a Python
+//! scenarios run to NumPy arrays (`scenario`), the plant stepped from a Python loop
+//! (`simulator`), Python controllers (`controller`). Every Rust error becomes a Python
 //! exception of the hierarchy below; pyo3 turns a Rust panic into `pyo3_runtime.PanicException`,
 //! never a crashed interpreter.
 

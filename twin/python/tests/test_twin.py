@@ -257,25 +257,26 @@ def test_ctrl_c_stops_a_run_and_keeps_its_recording(tmp_path):
     assert (tmp_path / "stopped.rrd").stat().st_size > 1000
 
 
-def test_the_readme_example_pd_in_python_against_the_built_in_p_pi():
-    """README's worked example (twin/python/examples/feed_axis_pd.py) over the paper's 25 s."""
+def test_the_guides_example_pd_in_python_against_the_built_in_p_pi():
+    """The guide's worked example (twin/python/examples/feed_axis_pd.py) over the paper's 25 s."""
     example = runpy.run_path(str(Path(__file__).parents[1] / "examples" / "feed_axis_pd.py"))
     figures = example["compare"](25.0)
     p_pi, pd = figures["P-PI (built in)"], figures["PD (Python)"]
-    # The built-in P-PI keeps its Table I σ (README, model notes: 0.0325 µm).
+    # The built-in P-PI keeps its Table I σ (the feed axis's chapter: 0.0325 µm).
     assert p_pi[1] == pytest.approx(0.0325e-6, rel=0.01)
     # Poles at 2π·50 Hz with the reference fed forward: a far smaller error for more force.
     assert pd[0] < p_pi[0] / 10 and pd[1] < p_pi[1] / 10 and pd[2] > p_pi[2]
 
 
-def test_the_readme_python_example_runs(tmp_path, monkeypatch):
-    """The README's block of the three ways in runs as written."""
-    readme = (Path(__file__).parents[3] / "README.md").read_text()
-    section = readme.split("### From Python", 1)[1].split("### From FMI tools", 1)[0]
+def test_the_guides_python_example_runs(tmp_path, monkeypatch):
+    """The guide's block of the three ways in (docs/src/python.md) runs as written."""
+    chapter = (Path(__file__).parents[3] / "docs" / "src" / "python.md").read_text()
+    section = chapter.split("## Three ways in", 1)[1].split("\n## ", 1)[0]
     code = section.split("```python\n", 1)[1].split("```", 1)[0]
     monkeypatch.chdir(tmp_path)
+    (tmp_path / "out").mkdir()  # as the guide's Getting started makes it
     scope = {}
-    exec(compile(code, "README.md", "exec"), scope)
+    exec(compile(code, "docs/src/python.md", "exec"), scope)
     assert scope["r"].ok and scope["r"].summary["controller"] == "python:Hold"
-    assert (tmp_path / "crank.rrd").stat().st_size > 10_000
+    assert (tmp_path / "out" / "crank.rrd").stat().st_size > 10_000
     assert scope["sim"].time == pytest.approx(1.0)

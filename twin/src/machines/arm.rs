@@ -58,7 +58,7 @@
 //! **Constant V0 fails hard.** In up milling the cut pulls the tool into the stock, on top of
 //! gravity: once the shoulder is clipped at 20 A the arm sags into the part, the cut deepens, the
 //! load grows, and the tool is dragged in until the deep zone ends (tens of mm). A chip from the
-//! tool's motion into the stock as well would resist the plunge only as a damper (README, arm
+//! tool's motion into the stock as well would resist the plunge only as a damper (the guide's arm
 //! notes: 64 mm instead of 61 mm), so the runaway is the process's, not a gap in the model; the
 //! figures beyond a full-width slot say that the path is lost, not by how much a cell would gouge.
 

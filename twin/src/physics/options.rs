@@ -25,7 +25,7 @@ pub struct SolverOptions {
 }
 
 /// Measured on the Whitworth linkage: 4 substeps, 2 PGS iterations and no stabilization
-/// iteration close the loops to 0.67 µm (README, engines).
+/// iteration close the loops to 0.67 µm (the guide, *The engines*).
 impl Default for SolverOptions {
     fn default() -> Self {
         Self {

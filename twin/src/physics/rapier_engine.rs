@@ -16,7 +16,7 @@
 //!   substeps), each of `rapier_iterations` PGS iterations and `rapier_stabilization_iterations`
 //!   stabilization iterations: on the Whitworth linkage 4 substeps, 2 PGS iterations and no
 //!   stabilization close the loops to about 0.6 µm, and the gap falls as 1/substeps² (more PGS
-//!   iterations alone stall near 10 µm; README, *Engines*). Rapier's integrator is first order:
+//!   iterations alone stall near 10 µm; the guide, *The engines*). Rapier's integrator is first order:
 //!   the energy it loses is the integrator's, not the closures'.
 //! - A process [`Load`] is a force at its point. Its in-step damping and stiffness (∂F/∂v,
 //!   ∂F/∂p), which Rapier cannot take, are re-evaluated from the point's motion since the step's

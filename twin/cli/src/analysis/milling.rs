@@ -12,7 +12,7 @@
 //! **The check**: on a grid of speeds × depths the scenario is run under `spindle-constant` from
 //! the speed, and each run is called chattering when the tool's once-per-tooth samples (a
 //! stable cut repeats every tooth: its Poincaré samples converge) still move at the end of the
-//! run (see [`chatters`]). Points within 5 % of the lobes' depth are left out of the agreement.
+//! run (see `chatters`). Points within 5 % of the lobes' depth are left out of the agreement.
 
 use super::{create_dir, write_text, AnalysisError};
 use crate::frf::file::read_csv;
