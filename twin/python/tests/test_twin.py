@@ -245,6 +245,9 @@ def test_a_python_controller_with_a_bad_reply_is_named():
 
 
 def test_ctrl_c_stops_a_run_and_keeps_its_recording(tmp_path):
+    # Python's own Ctrl-C handler, even where the test runner was started with SIGINT ignored (a
+    # shell's background job): the test is about the run's answer to it.
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
     # 300 s of simulated time: seconds of work, stopped after 0.3 s.
     s = twin.Scenario("feed-axis-micromilling").duration(300.0)
     timer = threading.Timer(0.3, lambda: os.kill(os.getpid(), signal.SIGINT))
@@ -254,6 +257,7 @@ def test_ctrl_c_stops_a_run_and_keeps_its_recording(tmp_path):
             s.run(record=tmp_path / "stopped.rrd")
     finally:
         timer.cancel()
+        signal.signal(signal.SIGINT, previous)
     assert (tmp_path / "stopped.rrd").stat().st_size > 1000
 
 
