@@ -507,3 +507,20 @@ fn the_link_check_reads_links_and_heading_ids() {
         ["a.md#b", "i.png"]
     );
 }
+
+#[test]
+fn every_chapter_of_the_guide_is_in_its_table_of_contents() {
+    let src = workspace().join("docs/src");
+    let summary = std::fs::read_to_string(src.join("SUMMARY.md")).unwrap();
+    let listed = link_targets(&summary);
+    let missing: Vec<String> = markdown_files()
+        .iter()
+        .filter_map(|file| file.strip_prefix(&src).ok())
+        .map(|chapter| chapter.display().to_string())
+        .filter(|chapter| chapter != "SUMMARY.md" && !listed.contains(chapter))
+        .collect();
+    assert!(
+        missing.is_empty(),
+        "docs/src/SUMMARY.md lists no link to {missing:?}"
+    );
+}
