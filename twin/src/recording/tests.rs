@@ -566,10 +566,12 @@ fn write_failure_child() {
     println!("push {step} failed: {err}");
     assert!(matches!(&err, RecordingError::Write { path: p, .. } if p == &path));
     assert!(err.to_string().contains(&path.display().to_string()));
-    // The first buffer (~0.37 kB of noise per sample in the file) already passes 1 MiB: its
-    // failure is reported at the latest by the push sending the second.
+    // The first buffer (~0.37 kB of noise per sample) comes to about 1.5 MB, but how much of it
+    // reaches the file before its flush depends on how Rerun cuts it into chunks: the limit is
+    // crossed in the first or the second buffer. Either way the failure is reported at the
+    // latest by the push that sends the buffer after it: the file is one buffer behind at most.
     assert!(
-        step <= 2 * FLUSH_EVERY as i64,
+        step <= 3 * FLUSH_EVERY as i64,
         "found only at sample {step}"
     );
     assert!(
