@@ -1,7 +1,19 @@
 //! The sampled columns a recording sends: link poses, marker positions and the two timelines, built
 //! as Arrow arrays straight from the buffers.
 
-use super::*;
+use std::sync::Arc;
+
+use rerun::archetypes::{Points2D, Transform3D};
+use rerun::components::{Position2D, RotationAxisAngle, Translation3D};
+use rerun::external::arrow::array::{ArrayRef, FixedSizeListArray, Float32Array, StructArray};
+use rerun::external::arrow::datatypes::DataType;
+use rerun::{
+    EntityPath, Loggable, RecordingStream, SerializedComponentBatch, SerializedComponentColumn,
+    TimeColumn,
+};
+
+use super::{error_chain, MAX_TRACE_POINTS, SIM_TIME, STEP};
+use framework::Unit;
 
 /// A link's buffered world poses.
 pub(super) struct LinkPoses {

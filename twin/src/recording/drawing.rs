@@ -1,7 +1,14 @@
 //! The static parts of a recording: the mechanism's links and bodies as line strips, the scene, the
 //! plots' series names and colours, and the entity paths they are logged at.
 
-use super::*;
+use rerun::archetypes::{LineStrips2D, Points2D, SeriesLines, TextDocument, Transform3D};
+use rerun::components::{Color, MediaType, Radius};
+use rerun::{EntityPath, EntityPathPart, RecordingStream};
+
+use super::layout::{PlotSpec, RecordingLayout, SeriesRole};
+use super::{error_chain, BODY_COLOR, CIRCLE_SEGMENTS, LINK_PALETTE, MECHANISM, SCENARIO};
+use crate::mechanism::{Outline, Shape};
+use crate::scene::{Marker, Scene};
 
 /// `/mechanism/<link>`.
 pub(super) fn link_entity(name: &str) -> EntityPath {

@@ -1,7 +1,11 @@
 //! What a recording contains, fixed before the run starts: the links, scene and bodies drawn, and
 //! the plots, each a tab's series of one display unit.
 
-use super::*;
+use super::plots::Plot2D;
+use super::{LiveViewer, FIGURES, SIGNALS};
+use crate::mechanism::Shape;
+use crate::scene::Scene;
+use framework::Unit;
 
 /// What a recording contains, fixed before the run starts.
 #[derive(Debug, Clone, Default)]

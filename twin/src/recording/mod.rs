@@ -41,7 +41,6 @@ mod salvage;
 mod study;
 mod writer;
 
-pub use framework::EventLevel;
 pub use inspect::{inspect, FigureLayer, RecordingContents};
 pub use layout::{PlotSpec, PlotTab, RecordingLayout, SeriesRole, SeriesSpec};
 pub use plots::{write_figures, write_plot, Plot2D, PlotAxis, PlotGeometry, PlotLayer};
@@ -49,35 +48,9 @@ pub use recorder::Recorder;
 pub use salvage::{salvage, SalvageReport};
 pub use study::{write_study_plots, Histogram, Scatter, StudyPlots};
 
-use std::path::{Path, PathBuf};
-use std::sync::Arc;
+use std::path::PathBuf;
 
-use rerun::archetypes::{
-    LineStrips2D, Points2D, Scalars, SeriesLines, TextDocument, TextLog, Transform3D,
-};
-use rerun::components::{
-    Color, MediaType, Position2D, Radius, RotationAxisAngle, TextLogLevel, Translation3D,
-};
-use rerun::external::arrow::array::{
-    ArrayRef, FixedSizeListArray, Float32Array, Float64Array, StructArray,
-};
-use rerun::external::arrow::datatypes::DataType;
-use rerun::log::ChunkBatcherConfig;
-use rerun::sink::LogSink;
-use rerun::{
-    ApplicationId, EntityPath, EntityPathPart, Loggable, RecordingStream, RecordingStreamBuilder,
-    SerializedComponentBatch, SerializedComponentColumn, TimeColumn,
-};
-
-use crate::mechanism::{wrap_angle, Outline, Pose2, Shape};
-use crate::scene::{Marker, Scene};
-use framework::Unit;
-use live::LiveHandle;
-use writer::{FileState, FileWriter, PartFile};
-
-use columns::*;
-use drawing::*;
-use layout::*;
+use rerun::ApplicationId;
 
 const MECHANISM: &str = "mechanism";
 const SIGNALS: &str = "signals";

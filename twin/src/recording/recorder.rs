@@ -1,7 +1,29 @@
 //! The [`Recorder`]: one run written to its `.rrd` file sample by sample, atomically, with the
 //! samples buffered and sent in columns.
 
-use super::*;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+use rerun::archetypes::{LineStrips2D, Points2D, Scalars, TextDocument, TextLog};
+use rerun::components::{Color, MediaType, Radius, TextLogLevel};
+use rerun::external::arrow::array::Float64Array;
+use rerun::log::ChunkBatcherConfig;
+use rerun::sink::LogSink;
+use rerun::{EntityPath, RecordingStream, RecordingStreamBuilder, SerializedComponentBatch};
+
+use super::columns::{send_marker, send_poses, timeline_columns, Group, LinkPoses, MarkerBuffer};
+use super::drawing::{body_entity, link_entity, log_layout, scene_entity};
+use super::layout::{figure_entity, PlotSpec, RecordingLayout};
+use super::live::LiveHandle;
+use super::plots::{self, Plot2D};
+use super::writer::{FileState, FileWriter, PartFile};
+use super::{
+    application_id, error_chain, event_text, RecordingError, RecordingOutcome, COLLISIONS,
+    COLLISION_COLOR, EVENTS, FLUSH_EVERY, MAX_BYTES_IN_FLIGHT, SUMMARY, TRACE_EVERY,
+};
+use super::{blueprint, live};
+use crate::mechanism::{wrap_angle, Pose2};
+use framework::EventLevel;
 
 /// Writes one run to an `.rrd` file, atomically: the data goes to a temporary file beside `path`
 /// (`X.rrd.<random>.part`), which [`Recorder::finish`] completes and renames onto `path`. A file at

@@ -1,4 +1,10 @@
+use super::columns::pose_columns;
 use super::*;
+use crate::mechanism::{wrap_angle, Outline, Pose2, Shape};
+use framework::EventLevel;
+use rerun::archetypes::Transform3D;
+use rerun::components::{RotationAxisAngle, Translation3D};
+use std::path::Path;
 use std::sync::{Arc, Barrier};
 use std::time::{Duration, Instant};
 
