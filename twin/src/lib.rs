@@ -13,6 +13,7 @@
 mod energy;
 mod faults;
 mod files;
+mod fitting;
 mod linear;
 mod machines;
 mod mechanism;
@@ -21,6 +22,7 @@ mod physics;
 mod plant;
 mod recording;
 mod run;
+mod run_data;
 mod scenario;
 mod scene;
 mod sensors;
@@ -38,14 +40,39 @@ pub use run::{
     RunSummary, SignalLayout, Simulator, StepError, StepView, StopFlag, Twin, TwinError,
 };
 pub use scenario::{
-    load as load_scenario, LoadedScenario, MetricKind, MetricSpec, Overrides, Scenario,
-    ScenarioBuilder, ScenarioError, ScenarioValue, BUILTIN as BUILTIN_SCENARIOS,
+    load as load_scenario, CalibrationSpec, FitSpec, LoadedScenario, MetricKind, MetricSpec,
+    Overrides, Scenario, ScenarioBuilder, ScenarioError, ScenarioValue,
+    BUILTIN as BUILTIN_SCENARIOS,
 };
 pub use sensors::Noise;
 
 /// Signal processing the twin's own spectra use, for applications that analyse signals alike.
 pub mod signal {
     pub use crate::spectrum::fft;
+}
+
+/// Measured runs in and out: a run's table of commands, measured and true signals as CSV,
+/// Parquet or a twin `.rrd` ([`RunData`](data::RunData)), bound to a plant's
+/// [`PlantColumns`](data::PlantColumns) and resampled onto its control period
+/// ([`Trace`](data::Trace)), and written from a run by the [`RunTable`](data::RunTable)
+/// observer.
+pub mod data {
+    pub use crate::run_data::{
+        parse_renames, ColumnRole, DataColumn, DataError, DataRate, PlantColumns, RunData,
+        RunTable, Trace, MAX_DATA_BYTES,
+    };
+}
+
+/// The twin against its machine's measured runs: [`compare`](calibration::compare) replays a
+/// run and says per signal how far apart they are; [`calibrate`](calibration::calibrate) fits
+/// scenario values to runs, checked first, with standard errors, 95 % intervals and the
+/// calibrated scenario.
+pub mod calibration {
+    pub use crate::fitting::{
+        calibrate, compare, Calibration, CalibrationError, CalibrationOptions, Comparison,
+        Estimate, FitParameter, Iteration, Overlay, RunFit, SignalFit, StartStates, Whiteness,
+        DEFAULT_SEGMENT,
+    };
 }
 
 /// A run's summary as a table for people and JSON for scripts.

@@ -80,6 +80,34 @@ impl PlantValues {
         Ok(())
     }
 
+    /// The number a `[plant]` key stands for in `mechanism` (the URDF's, or the value written
+    /// over it): `link.<name>.mass`/`izz`, `joint.<name>.damping`/`friction`/`effort_limit`/
+    /// `stiffness`; `None` for any other key, or where the URDF has no such value.
+    pub fn current(mechanism: &Mechanism, key: &[&str]) -> Option<f64> {
+        match key {
+            ["link", name, field] => {
+                let link = mechanism.links.iter().find(|l| l.name == *name)?;
+                let inertial = link.inertial.as_ref()?;
+                match *field {
+                    "mass" => Some(inertial.mass),
+                    "izz" => Some(inertial.izz),
+                    _ => None,
+                }
+            }
+            ["joint", name, field] => {
+                let joint = mechanism.joints.iter().find(|j| j.name == *name)?;
+                match *field {
+                    "damping" => Some(joint.damping),
+                    "friction" => Some(joint.friction),
+                    "effort_limit" => joint.effort_limit,
+                    "stiffness" => joint.spring.as_ref().map(|s| s.stiffness),
+                    _ => None,
+                }
+            }
+            _ => None,
+        }
+    }
+
     /// Writes the values into the mechanism read from the URDF; a name the URDF lacks, a link
     /// without `<inertial>` or a limit on an undriven joint is an error naming the key.
     pub fn apply(&self, mechanism: &mut Mechanism) -> Result<(), String> {

@@ -1,22 +1,42 @@
-//! Sensor models between the true signals and the controller: quantisation, noise and delay.
+//! Sensor models between the true signals and the controller: gain and bias, noise,
+//! quantisation and delay.
 //!
 //! Noise comes from a seeded generator (SplitMix64 + Box–Muller), so a run is reproducible bit for
-//! bit. Delay is a whole number of control periods (a sensor sampled by the drive's clock).
+//! bit. A delay of whole control periods holds readings (a sensor sampled by the drive's clock);
+//! a fraction of a period in between interpolates the two neighbouring readings, so that a
+//! calibration can fit a delay as a continuous value.
 
 use serde::Deserialize;
 use std::collections::VecDeque;
 
 /// How one measured signal is sensed; every field defaults to an ideal sensor.
-#[derive(Debug, Clone, Copy, PartialEq, Deserialize, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct SensorSpec {
+    /// Scale factor on the true value (a miscalibrated encoder or load cell); 1 = none.
+    pub gain: f64,
+    /// Offset added to the scaled value, in the signal's unit; 0 = none.
+    pub bias: f64,
     /// Quantisation step in the signal's unit (e.g. 2π/40000 rad for a 10,000-line encoder read
     /// in quadrature); 0 = none.
     pub resolution: f64,
     /// Standard deviation of white Gaussian noise added before quantisation; 0 = none.
     pub noise: f64,
-    /// Transport delay, s; rounded to whole control periods.
+    /// Transport delay, s: whole control periods hold readings, a fraction of a period
+    /// interpolates between two.
     pub delay: f64,
+}
+
+impl Default for SensorSpec {
+    fn default() -> Self {
+        Self {
+            gain: 1.0,
+            bias: 0.0,
+            resolution: 0.0,
+            noise: 0.0,
+            delay: 0.0,
+        }
+    }
 }
 
 impl SensorSpec {
@@ -30,6 +50,11 @@ impl SensorSpec {
                 return Err(format!("{name} must be ≥ 0 and finite, got {value}"));
             }
         }
+        for (name, value) in [("gain", self.gain), ("bias", self.bias)] {
+            if !value.is_finite() {
+                return Err(format!("{name} must be finite, got {value}"));
+            }
+        }
         Ok(())
     }
 }
@@ -39,28 +64,42 @@ impl SensorSpec {
 pub struct Sensor {
     spec: SensorSpec,
     history: VecDeque<f64>,
+    /// Whole control periods of delay.
     delay_periods: usize,
+    /// The delay's fraction of a period beyond them: the weight of the reading one period older.
+    delay_fraction: f64,
 }
 
 impl Sensor {
     pub fn new(spec: SensorSpec, control_period: f64) -> Self {
-        let delay_periods = (spec.delay / control_period).round() as usize;
+        let periods = spec.delay / control_period;
+        // A delay within a billionth of a whole period is that whole period (no interpolation).
+        let whole = periods.round();
+        let (delay_periods, delay_fraction) = if (periods - whole).abs() < 1e-9 {
+            (whole as usize, 0.0)
+        } else {
+            (periods.floor() as usize, periods - periods.floor())
+        };
         Self {
             spec,
             // Grown as readings arrive: a long delay costs memory only once the run reaches it.
-            history: VecDeque::with_capacity(delay_periods.min(4096) + 1),
+            history: VecDeque::with_capacity(delay_periods.min(4096) + 2),
             delay_periods,
+            delay_fraction,
         }
     }
 
     /// The reading for a true value sampled now.
     pub fn read(&mut self, true_value: f64, noise: &mut Noise) -> f64 {
-        let mut value = true_value;
+        let mut value = self.spec.gain * true_value + self.spec.bias;
         if self.spec.noise > 0.0 {
             value += self.spec.noise * noise.gaussian();
         }
         if self.spec.resolution > 0.0 {
             value = (value / self.spec.resolution).round() * self.spec.resolution;
+        }
+        if self.delay_fraction > 0.0 {
+            return self.interpolated(value);
         }
         if self.delay_periods == 0 {
             return value;
@@ -72,6 +111,19 @@ impl Sensor {
             // Before the first delayed sample arrives the sensor holds its first reading.
             self.history[0]
         }
+    }
+
+    /// A reading delayed by `delay_periods + delay_fraction` periods: the readings `n` and
+    /// `n + 1` periods old, weighted; the first reading stands in for those before it.
+    fn interpolated(&mut self, value: f64) -> f64 {
+        self.history.push_back(value);
+        let n = self.delay_periods;
+        while self.history.len() > n + 2 {
+            self.history.pop_front();
+        }
+        let len = self.history.len();
+        let aged = |periods: usize| self.history[len.saturating_sub(periods + 1)];
+        (1.0 - self.delay_fraction) * aged(n) + self.delay_fraction * aged(n + 1)
     }
 }
 
@@ -161,6 +213,30 @@ mod tests {
         );
         let mut again = Noise::new(42);
         assert_eq!(again.gaussian(), samples[0]);
+    }
+
+    #[test]
+    fn gain_and_bias_scale_and_offset_the_reading() {
+        let spec = SensorSpec {
+            gain: 1.5,
+            bias: -0.25,
+            ..Default::default()
+        };
+        let mut sensor = Sensor::new(spec, 1e-3);
+        assert_eq!(sensor.read(2.0, &mut Noise::new(1)), 2.75);
+    }
+
+    #[test]
+    fn a_fractional_delay_interpolates_between_periods() {
+        let spec = SensorSpec {
+            delay: 1.25e-3,
+            ..Default::default()
+        };
+        let mut sensor = Sensor::new(spec, 1e-3);
+        let mut noise = Noise::new(1);
+        let readings: Vec<f64> = (1..=5).map(|v| sensor.read(v as f64, &mut noise)).collect();
+        // 1.25 periods late: 0.75 of the reading one period old plus 0.25 of the one two old.
+        assert_eq!(readings, [1.0, 1.0, 1.75, 2.75, 3.75]);
     }
 
     #[test]

@@ -3,6 +3,8 @@
 
 use crate::analysis;
 use crate::bench;
+use crate::calibrate;
+use crate::compare;
 use crate::failure::{Failure, EXIT_DIVERGED, EXIT_ERROR};
 use crate::fmu;
 use crate::frf;
@@ -49,6 +51,13 @@ pub enum Command {
     Frf(frf::FrfArgs),
     /// Turn what a killed run left (`X.rrd.<random>.part`) into a complete recording.
     Salvage(salvage::SalvageArgs),
+    /// Replay a measured run (.csv, .parquet, .rrd) on a scenario and say how far apart they
+    /// are: fit %, RMS and largest error, residual whiteness per signal.
+    Compare(compare::CompareArgs),
+    /// Fit scenario parameters (masses, inertias, damping, friction, sensor gain/bias/delay,
+    /// any numeric key) to measured runs: checked first, then weighted least squares, with
+    /// standard errors, 95 % intervals and a calibrated scenario.
+    Calibrate(calibrate::CalibrateArgs),
     /// Linearise a scenario's plant at an operating point: A, B, C, D, their zero-order hold at
     /// the control period and the poles, into OUT_DIR/linear.json.
     Linearize(linearize::LinearizeArgs),
@@ -77,6 +86,8 @@ pub fn dispatch(cli: Cli) -> Result<ExitCode, Failure> {
         Command::Salvage(args) => salvage::run(args),
         Command::Sweep(args) => sweep::run(args, &registry),
         Command::Linearize(args) => linearize::run(args, &registry),
+        Command::Compare(args) => compare::run(args, &registry),
+        Command::Calibrate(args) => calibrate::run(args, &registry),
         Command::Fmu(args) => fmu::run(args, &registry),
         Command::Analyze(args) => printed(analysis::run(args, &registry)),
         Command::Frf(args) => printed(frf::run(args, &registry).map_err(frf_failure)),

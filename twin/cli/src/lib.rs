@@ -6,9 +6,12 @@
 
 pub mod analysis;
 pub mod bench;
+pub mod calibrate;
 pub mod command_line;
+pub mod compare;
 mod engine_option;
 pub mod failure;
+mod fit_figures;
 pub mod fmu;
 pub mod frf;
 pub mod linearize;

@@ -1,12 +1,14 @@
-//! `twin run`: one scenario run headless into an .rrd recording, with its summary.
+//! `twin run`: one scenario run headless into an .rrd recording, with its summary and, when
+//! asked, its commands and signals as a CSV or Parquet data file.
 
 use crate::engine_option::parse_engine;
 use crate::failure::{Failure, EXIT_DIVERGED};
 use crate::reproduce::engine_override;
 use crate::signals::stop_on_signals;
 use framework::Registry;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
+use twin::data::RunTable;
 use twin::{same_file, summary, Engine, LiveViewer, OutputFile, Overrides, Scenario, Twin};
 
 /// `twin run` arguments.
@@ -34,6 +36,14 @@ pub struct RunArgs {
     /// Also write the summary as JSON to this file.
     #[arg(long)]
     pub summary: Option<PathBuf>,
+    /// Also write the run as a CSV data file: `time [s]`, each actuator's `effort.<actuator>`,
+    /// each plant signal as measured (`<signal>`) and true (`true.<signal>`), SI, one row per
+    /// control update (written on a divergence or an interruption too).
+    #[arg(long, value_name = "FILE")]
+    pub csv: Option<PathBuf>,
+    /// Also write the run as a Parquet data file: the CSV's columns, as Float64.
+    #[arg(long, value_name = "FILE")]
+    pub parquet: Option<PathBuf>,
     /// Also stream the run to a Rerun viewer listening at this URL
     /// (e.g. rerun+http://127.0.0.1:9876/proxy).
     #[arg(long, conflicts_with = "spawn")]
@@ -58,12 +68,7 @@ pub fn run(args: &RunArgs, registry: &Registry) -> Result<ExitCode, Failure> {
         .out
         .clone()
         .unwrap_or_else(|| PathBuf::from(format!("{}.rrd", loaded.scenario.name)));
-    if args.summary.as_deref().is_some_and(|s| same_file(s, &out)) {
-        return Err(Failure::usage(format!(
-            "--summary {} is the recording's path too; give them different files",
-            out.display()
-        )));
-    }
+    check_outputs(args, &out)?;
     // Created now, so that an unwritable summary path fails before the run, not after it.
     let summary_file = args
         .summary
@@ -76,9 +81,17 @@ pub fn run(args: &RunArgs, registry: &Registry) -> Result<ExitCode, Failure> {
     } else if args.spawn {
         twin = twin.with_live_viewer(LiveViewer::Spawn);
     }
-    let result = twin.run(Some(&out))?;
+    let result = if args.csv.is_some() || args.parquet.is_some() {
+        let mut table = RunTable::new(args.csv.clone(), args.parquet.clone());
+        twin.run_with(Some(&out), &mut [&mut table])?
+    } else {
+        twin.run(Some(&out))?
+    };
     print!("{}", summary::to_table(&result));
     println!("recording: {}", out.display());
+    for data in [&args.csv, &args.parquet].into_iter().flatten() {
+        println!("data: {}", data.display());
+    }
     for warning in &result.warnings {
         eprintln!("warning: {warning}");
     }
@@ -96,4 +109,36 @@ pub fn run(args: &RunArgs, registry: &Registry) -> Result<ExitCode, Failure> {
         }
         (None, None) => ExitCode::SUCCESS,
     })
+}
+
+/// Refuses two outputs at one path, and an unwritable data file before the run.
+fn check_outputs(args: &RunArgs, out: &Path) -> Result<(), Failure> {
+    let outputs = [
+        ("--out", Some(out)),
+        ("--summary", args.summary.as_deref()),
+        ("--csv", args.csv.as_deref()),
+        ("--parquet", args.parquet.as_deref()),
+    ];
+    for (i, (flag, path)) in outputs.iter().enumerate() {
+        let Some(path) = path else { continue };
+        let earlier = outputs[..i]
+            .iter()
+            .find(|(_, p)| p.is_some_and(|p| same_file(p, path)));
+        if let Some((other, _)) = earlier {
+            let what = if *other == "--out" {
+                "the recording's path".to_owned()
+            } else {
+                format!("{other}'s path")
+            };
+            return Err(Failure::usage(format!(
+                "{flag} {} is {what} too; give them different files",
+                path.display()
+            )));
+        }
+    }
+    for path in [&args.csv, &args.parquet].into_iter().flatten() {
+        // Created and dropped: the folder is checked now, not after the run.
+        drop(OutputFile::create(path)?);
+    }
+    Ok(())
 }

@@ -37,6 +37,21 @@ create_exception!(
     "A Python controller broke its protocol (`update(t, measurements) -> efforts`) or raised; \
      the original exception is its `__cause__`."
 );
+create_exception!(
+    _twin,
+    DataError,
+    TwinError,
+    "A data file that cannot be read or written, or whose columns do not fit the scenario: the \
+     message names the file and the row or column."
+);
+create_exception!(
+    _twin,
+    CalibrationError,
+    TwinError,
+    "A comparison or calibration refused or failed: options that contradict each other or name \
+     what the scenario lacks, parameters the data cannot determine (the check before the solve), \
+     a replay that diverged."
+);
 
 /// A twin error (building, binding or running a scenario) as a Python exception: the
 /// scenario's and model files' mistakes are `ScenarioError`s.
@@ -51,6 +66,23 @@ pub fn from_twin(error: twin::TwinError) -> PyErr {
 
 pub fn from_scenario(error: twin::ScenarioError) -> PyErr {
     ScenarioError::new_err(error.to_string())
+}
+
+/// A data file's refusal as a `DataError`.
+pub fn from_data(error: twin::data::DataError) -> PyErr {
+    DataError::new_err(error.to_string())
+}
+
+/// A comparison's or calibration's refusal: the scenario's, the twin's and the data's as their
+/// own exceptions, the rest as `CalibrationError`s.
+pub fn from_calibration(error: twin::calibration::CalibrationError) -> PyErr {
+    use twin::calibration::CalibrationError as Refused;
+    match error {
+        Refused::Scenario(error) => from_scenario(error),
+        Refused::Twin(error) => from_twin(error),
+        Refused::Data(error) => from_data(error),
+        other => CalibrationError::new_err(other.to_string()),
+    }
 }
 
 /// A divergence as a `DivergedError` carrying its figures.
@@ -80,5 +112,7 @@ pub fn add_to(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("ScenarioError", py.get_type::<ScenarioError>())?;
     m.add("StepError", py.get_type::<StepError>())?;
     m.add("DivergedError", py.get_type::<DivergedError>())?;
-    m.add("ControllerError", py.get_type::<ControllerError>())
+    m.add("ControllerError", py.get_type::<ControllerError>())?;
+    m.add("DataError", py.get_type::<DataError>())?;
+    m.add("CalibrationError", py.get_type::<CalibrationError>())
 }

@@ -1,18 +1,24 @@
 //! The twin from Python (`twin._twin`, wrapped by the `twin` package in `python/twin`):
 //! scenarios run to NumPy arrays (`scenario`), the plant stepped from a Python loop
-//! (`simulator`), Python controllers (`controller`). Every Rust error becomes a Python
+//! (`simulator`), Python controllers (`controller`), the twin compared with and calibrated
+//! to measured runs (`calibration`). Every Rust error becomes a Python
 //! exception of the hierarchy below; pyo3 turns a Rust panic into `pyo3_runtime.PanicException`,
 //! never a crashed interpreter.
 
+mod calibration;
 mod controller;
 mod errors;
+mod measured;
 mod result;
 mod scenario;
 mod simulator;
 
 use pyo3::prelude::*;
 
-pub use errors::{ControllerError, DivergedError, ScenarioError, StepError, TwinError};
+pub use errors::{
+    CalibrationError, ControllerError, DataError, DivergedError, ScenarioError, StepError,
+    TwinError,
+};
 
 /// The built-in scenarios' names, e.g. `whitworth-crank-pi`.
 #[pyfunction]
@@ -45,6 +51,7 @@ fn _twin(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(scenarios, m)?)?;
     m.add_function(wrap_pyfunction!(registry_controllers, m)?)?;
     m.add_function(wrap_pyfunction!(engine_step_seconds, m)?)?;
+    m.add_function(wrap_pyfunction!(calibration::calibrate, m)?)?;
     m.add_class::<scenario::Scenario>()?;
     m.add_class::<simulator::Simulator>()?;
     m.add_class::<result::RunResult>()?;

@@ -1,10 +1,13 @@
 //! A run's result for Python: its summary as a dict and every series as NumPy arrays, sampled as
-//! the recording samples (`recording.every`).
+//! the recording samples (`recording.every`), and its table (one row per control update) written
+//! as `twin run --csv` and `--parquet` write it.
 
+use crate::errors::from_data;
 use numpy::PyArray1;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use std::path::PathBuf;
+use twin::data::RunData;
 use twin::{Observer, ObserverError, SignalLayout, StepView};
 
 /// The series an observer collects, row by row, at the recording's samples.
@@ -64,44 +67,64 @@ fn units<'py>(
 }
 
 /// A finished run: its summary and its series (SI units, sampled every `recording.every` steps
-/// and at the last step).
-#[pyclass(module = "twin._twin", frozen, get_all)]
+/// and at the last step), and its table of commands, measured and true signals per control
+/// update (`to_csv`, `to_parquet`).
+#[pyclass(module = "twin._twin", frozen)]
 pub struct RunResult {
     /// The summary as `twin run --summary` writes it: `scenario`, `controller`, `status`
     /// (`ok`, `failed`, `interrupted`), `failure`, `metrics`, `steps`, `time_reached`, …
+    #[pyo3(get)]
     summary: Py<PyDict>,
     /// The summary's metrics by name (SI unless the name says otherwise).
+    #[pyo3(get)]
     metrics: Py<PyDict>,
     /// Why the run stopped early (a divergence or a crash), or None.
+    #[pyo3(get)]
     failure: Option<String>,
     /// Simulated time of each sample, s.
+    #[pyo3(get)]
     time: Py<PyArray1<f64>>,
     /// The plant's true signals by name.
+    #[pyo3(get)]
     signals: Py<PyDict>,
     /// The signals as the controller measured them (through the sensors) by name.
+    #[pyo3(get)]
     measured: Py<PyDict>,
     /// The efforts the controller commanded, by actuator (in `command_units`).
+    #[pyo3(get)]
     commanded: Py<PyDict>,
     /// The efforts the joints received (clipped to the limits, through the drives), by actuator.
+    #[pyo3(get)]
     efforts: Py<PyDict>,
     /// The controller's internal signals by name.
+    #[pyo3(get)]
     internals: Py<PyDict>,
     /// The model checks by name: the machine's own figures (the arm's `path_deviation`, the
     /// platform's `path_error`), `loop_gap/<loop>`, `mechanical_energy`.
+    #[pyo3(get)]
     diagnostics: Py<PyDict>,
     /// The SI unit of each signal (`m`, `rad/s`, …), by name.
+    #[pyo3(get)]
     units: Py<PyDict>,
     /// The SI unit of each actuator's commanded effort (`N`, `N·m`, or `A` where the drive
     /// takes a current).
+    #[pyo3(get)]
     command_units: Py<PyDict>,
     /// The SI unit of each actuator's applied effort (`N` or `N·m`).
+    #[pyo3(get)]
     effort_units: Py<PyDict>,
     /// The SI unit of each internal signal.
+    #[pyo3(get)]
     internal_units: Py<PyDict>,
     /// The SI unit of each model check.
+    #[pyo3(get)]
     diagnostic_units: Py<PyDict>,
     /// The recording written, or None.
+    #[pyo3(get)]
     recording: Option<PathBuf>,
+    /// One row per control update, as `twin run --csv` writes it (not exposed: `to_csv`,
+    /// `to_parquet`).
+    table: RunData,
 }
 
 impl RunResult {
@@ -109,6 +132,7 @@ impl RunResult {
         py: Python<'_>,
         summary: &twin::RunSummary,
         series: Series,
+        table: RunData,
         recording: Option<PathBuf>,
     ) -> PyResult<Self> {
         let layout = (series.layout).ok_or_else(|| {
@@ -145,6 +169,7 @@ impl RunResult {
             internal_units: units(py, &layout.internals, internal_units)?.unbind(),
             diagnostic_units: units(py, &layout.diagnostics, diagnostic_units)?.unbind(),
             recording,
+            table,
         })
     }
 }
@@ -156,6 +181,21 @@ impl RunResult {
     fn ok(&self, py: Python<'_>) -> PyResult<bool> {
         let status = self.summary.bind(py).get_item("status")?;
         Ok(status.is_some_and(|s| s.extract::<String>().is_ok_and(|s| s == "ok")))
+    }
+
+    /// Writes the run's table to `path` as `twin run --csv` does: `time [s]`, each actuator's
+    /// commanded effort `effort.<actuator> [unit]`, each signal as measured `<signal> [unit]`
+    /// and as true `true.<signal> [unit]`, SI, one row per control update; the file is written
+    /// whole or not at all. `Scenario.compare` and `twin.calibrate` read it back.
+    fn to_csv(&self, py: Python<'_>, path: PathBuf) -> PyResult<()> {
+        py.detach(|| self.table.write_csv(&path)).map_err(from_data)
+    }
+
+    /// Writes the run's table to `path` as `twin run --parquet` does: the columns of `to_csv`,
+    /// one Float64 column each, with the same names.
+    fn to_parquet(&self, py: Python<'_>, path: PathBuf) -> PyResult<()> {
+        py.detach(|| self.table.write_parquet(&path))
+            .map_err(from_data)
     }
 
     fn __repr__(&self, py: Python<'_>) -> PyResult<String> {

@@ -1,16 +1,18 @@
-//! `Scenario`: a built-in or file scenario with changes, checked at each change, run whole or
-//! handed out as a simulator.
+//! `Scenario`: a built-in or file scenario with changes, checked at each change, run whole,
+//! handed out as a simulator or compared with a measured run.
 
 use crate::controller::PythonController;
 use crate::errors::{from_scenario, from_twin, ScenarioError};
+use crate::measured;
 use crate::result::{RunResult, Series};
 use crate::simulator::Simulator;
 use pyo3::exceptions::PyKeyboardInterrupt;
 use pyo3::prelude::*;
 use pyo3::types::{PyBool, PyDict, PyFloat, PyList, PyString, PyTuple};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Arc;
+use twin::data::RunTable;
 use twin::{LoadedScenario, Observer, ObserverError, ScenarioBuilder, StepView};
 
 /// A scenario: a built-in name (see `twin.scenarios()`) or a scenario TOML file, with changes.
@@ -24,18 +26,44 @@ pub struct Scenario {
     builder: ScenarioBuilder,
     /// The scenario as the changes so far make it (checked).
     scenario: twin::Scenario,
+    /// The folder of the scenario's file (its `[calibration]` paths are relative to it), or
+    /// None for a built-in scenario.
+    folder: Option<PathBuf>,
 }
 
 impl Scenario {
     /// The builder's scenario checked whole, as `twin run` checks it before a run: the
     /// scenario, the controller's parameters, then the machine's `[process]`, the sensors, the
     /// metrics and the faults against the plant (a twin is bound and dropped, about 1 ms).
-    fn checked(builder: ScenarioBuilder) -> PyResult<Self> {
+    pub fn checked(builder: ScenarioBuilder, folder: Option<PathBuf>) -> PyResult<Self> {
         let loaded = builder.clone().build(&controllers::builtin());
         let loaded = loaded.map_err(from_scenario)?;
         let scenario = loaded.scenario.clone();
         twin::Twin::new(loaded).map_err(from_twin)?;
-        Ok(Self { builder, scenario })
+        Ok(Self {
+            builder,
+            scenario,
+            folder,
+        })
+    }
+
+    /// This scenario's builder changed by `change`, checked, in the same folder.
+    fn changed(
+        &self,
+        change: impl FnOnce(ScenarioBuilder) -> Result<ScenarioBuilder, twin::ScenarioError>,
+    ) -> PyResult<Self> {
+        let builder = change(self.builder.clone()).map_err(from_scenario)?;
+        Self::checked(builder, self.folder.clone())
+    }
+
+    /// The scenario as the engine library puts it together.
+    pub fn builder(&self) -> &ScenarioBuilder {
+        &self.builder
+    }
+
+    /// The folder of the scenario's file, if it came from one.
+    pub fn folder(&self) -> Option<&Path> {
+        self.folder.as_deref()
     }
 
     /// The scenario with its controller, ready to be bound into a twin.
@@ -49,43 +77,43 @@ impl Scenario {
 impl Scenario {
     /// Opens a built-in scenario by name or a scenario TOML file by path.
     #[new]
-    fn new(name_or_path: PathBuf) -> PyResult<Self> {
+    pub fn new(name_or_path: PathBuf) -> PyResult<Self> {
         let name = name_or_path.to_string_lossy();
-        Self::checked(twin::Scenario::open(&name).map_err(from_scenario)?)
+        let builder = twin::Scenario::open(&name).map_err(from_scenario)?;
+        // As `twin calibrate` finds a scenario file's `[calibration]` runs.
+        let folder = match name_or_path.parent() {
+            Some(parent) if name_or_path.is_file() => Some(parent.to_path_buf()),
+            _ => None,
+        };
+        Self::checked(builder, folder)
     }
 
     /// This scenario with the dotted `key` set to `value` (bool, int, float, str, or a list or
     /// dict of them), e.g. `set("controller.params.crank_speed", -6.0)`.
     fn set(&self, key: &str, value: &Bound<'_, PyAny>) -> PyResult<Self> {
         let value = toml_value(key, value)?;
-        Self::checked(
-            self.builder
-                .clone()
-                .set(key, value)
-                .map_err(from_scenario)?,
-        )
+        self.changed(|builder| builder.set(key, value))
     }
 
     /// This scenario with another controller of the registry (see `twin.controllers()`); the
     /// old controller's parameters are dropped.
     fn controller(&self, name: &str) -> PyResult<Self> {
-        Self::checked(self.builder.clone().controller(name))
+        self.changed(|builder| Ok(builder.controller(name)))
     }
 
     /// This scenario run for `seconds` of simulated time.
     fn duration(&self, seconds: f64) -> PyResult<Self> {
-        Self::checked(self.builder.clone().duration(seconds))
+        self.changed(|builder| Ok(builder.duration(seconds)))
     }
 
     /// This scenario with the sensor noise and fault draws of `seed`.
     fn seed(&self, seed: u64) -> PyResult<Self> {
-        Self::checked(self.builder.clone().seed(seed))
+        self.changed(|builder| Ok(builder.seed(seed)))
     }
 
     /// This scenario stepped by `engine`: `"exact"` or `"rapier"`.
     fn engine(&self, engine: &str) -> PyResult<Self> {
-        let builder = self.builder.clone().set("solver.engine", engine);
-        Self::checked(builder.map_err(from_scenario)?)
+        self.changed(|builder| builder.set("solver.engine", engine))
     }
 
     /// The scenario's name.
@@ -153,9 +181,10 @@ impl Scenario {
     }
 
     /// Runs the scenario to its end and returns a `RunResult` (summary, signals as NumPy
-    /// arrays). `record`: write the Rerun recording there. `controller`: any object with
-    /// `update(t, measurements) -> efforts`, called every control period in place of the
-    /// scenario's controller (and `reset()` first, if it has one).
+    /// arrays, and the run's table for `to_csv` and `to_parquet`). `record`: write the Rerun
+    /// recording there. `controller`: any object with `update(t, measurements) -> efforts`,
+    /// called every control period in place of the scenario's controller (and `reset()` first,
+    /// if it has one).
     #[pyo3(signature = (record=None, controller=None))]
     fn run(
         &self,
@@ -176,9 +205,13 @@ impl Scenario {
             Err(error) => return Err(controller_error(py).unwrap_or_else(|| from_twin(error))),
         };
         let mut series = Series::default();
+        let mut table = RunTable::new(None, None);
         let mut interrupts = Interrupts { stop, error: None };
-        let summary =
-            py.detach(|| twin.run_with(record.as_deref(), &mut [&mut series, &mut interrupts]));
+        let summary = py.detach(|| {
+            let observers: &mut [&mut dyn Observer] =
+                &mut [&mut series, &mut table, &mut interrupts];
+            twin.run_with(record.as_deref(), observers)
+        });
         let summary = summary.map_err(from_twin)?;
         if let Some(error) = interrupts.error {
             return Err(error);
@@ -186,7 +219,25 @@ impl Scenario {
         if let Some(error) = controller_error(py) {
             return Err(error);
         }
-        RunResult::new(py, &summary, series, record)
+        RunResult::new(py, &summary, series, table.data().clone(), record)
+    }
+
+    /// This scenario replaying the measured run in `data` (a `.csv`, `.parquet` or twin `.rrd`
+    /// file) from the run's start state, as `twin compare` does: open loop on its logged
+    /// commands, or with `closed_loop` the scenario's controller on its logged reference. `map`
+    /// renames the data's columns first (`{old: new}`, as `--map old=new`). Returns a dict:
+    /// `report` (as `twin compare` writes comparison.json: per signal `fit_percent`,
+    /// `rms_error`, `max_error`, `whiteness`), `time` (the control-period grid, s) and per
+    /// compared signal `measured` and `simulated` (NumPy arrays, SI) and `units`.
+    #[pyo3(signature = (data, *, closed_loop=false, map=None))]
+    fn compare<'py>(
+        &self,
+        py: Python<'py>,
+        data: PathBuf,
+        closed_loop: bool,
+        map: Option<&Bound<'py, PyAny>>,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        measured::compare(py, &self.builder, &data, closed_loop, map)
     }
 
     fn __repr__(&self) -> String {

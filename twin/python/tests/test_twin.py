@@ -17,16 +17,6 @@ import pytest
 import twin
 
 
-@pytest.fixture
-def twin_cli():
-    """The twin command line of the same checkout (scripts/test sets TWIN)."""
-    path = os.environ.get("TWIN")
-    if not path:
-        pytest.fail("set TWIN to the twin command line, e.g. target/release/twin (scripts/test does)")
-    # Absolute, since tests run it from their own temporary folders.
-    return str(Path(path).resolve())
-
-
 def test_lists_the_scenarios_and_controllers():
     assert "whitworth-crank-pi" in twin.scenarios()
     assert len(twin.scenarios()) >= 15

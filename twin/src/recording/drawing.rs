@@ -6,6 +6,7 @@ use rerun::components::{Color, MediaType, Radius};
 use rerun::{EntityPath, EntityPathPart, RecordingStream};
 
 use super::layout::{PlotSpec, RecordingLayout, SeriesRole};
+use super::signals::column_batches;
 use super::{error_chain, BODY_COLOR, CIRCLE_SEGMENTS, LINK_PALETTE, MECHANISM, SCENARIO};
 use crate::mechanism::{Outline, Shape};
 use crate::scene::{Marker, Scene};
@@ -64,11 +65,15 @@ pub(super) fn log_layout(stream: &RecordingStream, layout: &RecordingLayout) -> 
     )?;
     for plot in layout.plots.iter().filter(|p| !p.series.is_empty()) {
         let colors = series_colors(plot);
+        let lines = SeriesLines::new()
+            .with_names(plot.series.iter().map(|s| plot.series_label(s)))
+            .with_colors(colors.iter().map(|&[r, g, b]| Color::from_rgb(r, g, b)));
+        // One log, so one chunk: two static logs of one entity may reach the file in either
+        // order, and the same run must write the same bytes.
+        let columns = column_batches(plot);
         log_static(
             EntityPath::from(plot.entity()),
-            &SeriesLines::new()
-                .with_names(plot.series.iter().map(|s| plot.series_label(s)))
-                .with_colors(colors.iter().map(|&[r, g, b]| Color::from_rgb(r, g, b))),
+            &[&lines as &dyn rerun::AsComponents, &columns],
         )?;
     }
     Ok(())

@@ -110,6 +110,52 @@ pub struct SeriesSpec {
     pub role: SeriesRole,
     /// Index of its SI value in the values passed to `Recorder::push`.
     pub value: usize,
+    /// The run's column it carries, for reading the recording back as data
+    /// ([`RunData::read`](crate::data::RunData::read)); `None` for what is not one (an applied
+    /// effort, a controller internal, a check, a joint the controller does not measure).
+    pub column: Option<SeriesColumn>,
+}
+
+/// What a value of a measured run is: an actuator's command, a plant signal as measured, or as
+/// it truly is.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum ColumnRole {
+    /// The effort (or current) the controller commands an actuator, held over a control period:
+    /// the column `effort.<actuator>`.
+    Command,
+    /// A plant signal as the controller reads it (through its sensor): the column `<signal>`.
+    Measured,
+    /// A plant signal's true value (before any sensor): the column `true.<signal>`.
+    True,
+}
+
+impl ColumnRole {
+    /// The role's word in a recording's column annotation.
+    pub(super) fn word(self) -> &'static str {
+        match self {
+            ColumnRole::Command => "command",
+            ColumnRole::Measured => "measured",
+            ColumnRole::True => "true",
+        }
+    }
+
+    /// The role a word of [`ColumnRole::word`] names.
+    pub(super) fn from_word(word: &str) -> Option<Self> {
+        [ColumnRole::Command, ColumnRole::Measured, ColumnRole::True]
+            .into_iter()
+            .find(|role| role.word() == word)
+    }
+}
+
+/// The run's column a plotted series carries: the actuator or plant signal it is of, and its
+/// roles. A signal without a sensor or sensor fault has one series for both its true and its
+/// measured value: at each control update the controller reads the true value.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct SeriesColumn {
+    /// The actuator's joint (for a command) or the plant signal's name.
+    pub name: String,
+    /// What the series' values are: one role, or `True` and `Measured` together.
+    pub roles: Vec<ColumnRole>,
 }
 
 /// A plot: series of one display unit, on one tab.

@@ -11,7 +11,9 @@
 //! - `/mechanism/bodies/<body>`: the scenario's bodies, drawn and posed like links;
 //! - `/mechanism/collisions`: every crash so far, a point labelled with its pair, from its step;
 //! - `/signals/<tab>/<plot>`: one multi-instance `Scalars` per plot, all of one display unit
-//!   ([`PlotSpec`]), with static `SeriesLines` naming (with the unit) and colouring the series;
+//!   ([`PlotSpec`]), with static `SeriesLines` naming (with the unit) and colouring the series,
+//!   and a static annotation saying which series carry the run's commands, measurements and true
+//!   signals, for reading them back as data ([`read_signals`]);
 //! - `/figures/<name>`: the run's 2D figures drawn at its end (its spectra, a milling run's lobe
 //!   diagram), each axes and data as a static plot of [`plots`] (`axes/…`, `data/<layer>`);
 //! - `/events`: a `TextLog`, from the run's start (scenario, controller, parameters digest) to its
@@ -38,14 +40,18 @@ mod live;
 mod plots;
 mod recorder;
 mod salvage;
+mod signals;
 mod study;
 mod writer;
 
 pub use inspect::{inspect, FigureLayer, RecordingContents};
-pub use layout::{PlotSpec, PlotTab, RecordingLayout, SeriesRole, SeriesSpec};
+pub use layout::{
+    ColumnRole, PlotSpec, PlotTab, RecordingLayout, SeriesColumn, SeriesRole, SeriesSpec,
+};
 pub use plots::{write_figures, write_plot, Plot2D, PlotAxis, PlotGeometry, PlotLayer};
 pub use recorder::Recorder;
 pub use salvage::{salvage, SalvageReport};
+pub use signals::read_signals;
 pub use study::{write_study_plots, Histogram, Scatter, StudyPlots};
 
 use std::path::PathBuf;

@@ -83,6 +83,7 @@ fn layout(links: usize, groups: &[(&str, usize)]) -> RecordingLayout {
                                 name: format!("s{k}"),
                                 role: SeriesRole::Other,
                                 value: next - 1,
+                                column: None,
                             }
                         })
                         .collect();

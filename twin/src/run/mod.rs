@@ -296,13 +296,21 @@ impl Twin {
     pub fn recording_plan(&self) -> (Vec<crate::recording::PlotSpec>, Scene) {
         let sensed: Vec<bool> = self.sensors.iter().map(Option::is_some).collect();
         (
-            record::plan(&self.layout, &sensed),
+            record::plan(&self.layout, &sensed, &self.plain_measurements()),
             framed(
                 self.machine.scene(),
                 &self.mechanism,
                 &self.loaded.scenario.bodies,
             ),
         )
+    }
+
+    /// Per plant signal: whether its measurement is its true value at each control update (no
+    /// sensor and no sensor fault stand between them).
+    fn plain_measurements(&self) -> Vec<bool> {
+        (0..self.sensors.len())
+            .map(|i| self.sensors[i].is_none() && !self.faults.reads_signal(i))
+            .collect()
     }
 
     /// A scenario entry that does not fit the run, found once it runs (a body overlapping a link
@@ -421,6 +429,7 @@ impl Twin {
                 .collect(),
             scene: framed(self.machine.scene(), &self.mechanism, &scenario.bodies),
             sensed: self.sensors.iter().map(Option::is_some).collect(),
+            plain: self.plain_measurements(),
             start_text,
             live: self.live.clone(),
             spectra: self.spectra_plan(),

@@ -13,7 +13,8 @@ use super::RunSummary;
 use crate::mechanism::{Pose2, Shape};
 use crate::physics::Collision;
 use crate::recording::{
-    LiveViewer, PlotSpec, PlotTab, Recorder, RecordingLayout, SeriesRole, SeriesSpec,
+    ColumnRole, LiveViewer, PlotSpec, PlotTab, Recorder, RecordingLayout, SeriesColumn, SeriesRole,
+    SeriesSpec,
 };
 use crate::scene::Scene;
 use framework::{EventLevel, SignalSpec, Unit};
@@ -26,6 +27,9 @@ pub struct RecordingObserver {
     layout: RecordingLayout,
     /// Per plant signal: whether a sensor makes its measurement differ from its true value.
     sensed: Vec<bool>,
+    /// Per plant signal: whether its measurement is its true value at each control update (no
+    /// sensor, no sensor fault).
+    plain: Vec<bool>,
     /// The run's first event: scenario, controller, parameters digest.
     start_text: String,
     recorder: Option<Recorder>,
@@ -64,6 +68,7 @@ pub struct RecordingParts {
     pub bodies: Vec<(String, Vec<Shape>)>,
     pub scene: Scene,
     pub sensed: Vec<bool>,
+    pub plain: Vec<bool>,
     pub start_text: String,
     pub live: Option<LiveViewer>,
     pub spectra: SpectraPlan,
@@ -85,6 +90,7 @@ impl RecordingObserver {
                 live: parts.live,
             },
             sensed: parts.sensed,
+            plain: parts.plain,
             start_text: parts.start_text,
             recorder: None,
             marker_sources: Vec::new(),
@@ -200,7 +206,12 @@ impl PlotPlan {
         } else {
             name.to_owned()
         };
-        plot.series.push(SeriesSpec { name, role, value });
+        plot.series.push(SeriesSpec {
+            name,
+            role,
+            value,
+            column: None,
+        });
         sources.push(source);
     }
 
@@ -261,8 +272,9 @@ fn effort_quantity(unit: Unit) -> &'static str {
 
 /// The plots of a run: the plant's signals (and their measurements where a sensor changes
 /// them) and the reference, the joints, the efforts (per actuator, commanded with applied), the
-/// controller's internals and the diagnostics.
-pub(super) fn plan(layout: &SignalLayout, sensed: &[bool]) -> Vec<PlotSpec> {
+/// controller's internals and the diagnostics; each series marked with the run's column it
+/// carries (`plain`: per plant signal, whether its measurement is its true value).
+pub(super) fn plan(layout: &SignalLayout, sensed: &[bool], plain: &[bool]) -> Vec<PlotSpec> {
     let at = Offsets::of(layout);
     let mut plan = PlotPlan::default();
     plan_plant_signals(&mut plan, layout, sensed, &at);
@@ -288,7 +300,55 @@ pub(super) fn plan(layout: &SignalLayout, sensed: &[bool]) -> Vec<PlotSpec> {
             value,
         );
     }
-    plan.finish()
+    let mut plots = plan.finish();
+    for series in plots.iter_mut().flat_map(|plot| &mut plot.series) {
+        series.column = run_column(series.value, layout, &at, plain);
+    }
+    plots
+}
+
+/// The run's column the value at `value` is, if any: a command, a plant signal's measurement, or
+/// its true value (a joint's position and velocity are plant signals when the controller
+/// measures the joint).
+fn run_column(
+    value: usize,
+    layout: &SignalLayout,
+    at: &Offsets,
+    plain: &[bool],
+) -> Option<SeriesColumn> {
+    let column = |name: &str, roles: Vec<ColumnRole>| {
+        Some(SeriesColumn {
+            name: name.to_owned(),
+            roles,
+        })
+    };
+    let true_signal = |k: usize| {
+        let roles = match plain.get(k) {
+            Some(true) => vec![ColumnRole::True, ColumnRole::Measured],
+            _ => vec![ColumnRole::True],
+        };
+        column(layout.signals.get(k)?, roles)
+    };
+    if value < at.commanded {
+        let (joint, which) = match value.checked_sub(at.velocities) {
+            Some(j) => (j, 1),
+            None => (value, 0),
+        };
+        let spec = &layout.specs.joints.get(joint)?[which];
+        layout.signal(&spec.name).and_then(true_signal)
+    } else if value < at.applied {
+        column(
+            layout.actuators.get(value - at.commanded)?,
+            vec![ColumnRole::Command],
+        )
+    } else if (at.signals..at.measured).contains(&value) {
+        true_signal(value - at.signals)
+    } else if (at.measured..at.internals).contains(&value) {
+        let name = layout.signals.get(value - at.measured)?;
+        column(name, vec![ColumnRole::Measured])
+    } else {
+        None
+    }
 }
 
 /// The machine's signals and the reference, then the measurements a sensor changes. The joints'
@@ -424,7 +484,7 @@ fn summary_markdown(summary: &RunSummary) -> String {
 
 impl Observer for RecordingObserver {
     fn start(&mut self, layout: &SignalLayout) -> Result<(), ObserverError> {
-        self.layout.plots = plan(layout, &self.sensed);
+        self.layout.plots = plan(layout, &self.sensed, &self.plain);
         self.layout.figures = self.spectra.start(layout)?;
         if let Some(scene) = self.layout.scene.as_mut() {
             self.marker_sources = bind_markers(scene, layout);

@@ -304,6 +304,12 @@ impl Simulator {
         Ok(())
     }
 
+    /// The reference signals' indices among the plant's signals (empty without a
+    /// `[reference]`).
+    pub(crate) fn reference_signals(&self) -> std::ops::Range<usize> {
+        self.session.twin().layout.reference_range()
+    }
+
     /// The controller in the loop (`outside` for the plant alone).
     pub fn controller(&self) -> &str {
         self.session.twin().loaded.controller.name()

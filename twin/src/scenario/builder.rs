@@ -298,6 +298,34 @@ impl ScenarioBuilder {
         })
     }
 
+    /// The scenario without its top-level table or value `key` (a calibrated scenario drops its
+    /// `[calibration]`, whose runs were named relative to the file it came from).
+    pub fn without(mut self, key: &str) -> Self {
+        if self.table.remove(key).is_some() {
+            self.changed = true;
+        }
+        self
+    }
+
+    /// The number the scenario's TOML holds at a dotted key (as `set` takes it, `urdf.` for
+    /// `plant.`), if it holds one there; values the URDF or a default gives are not in the TOML.
+    pub fn number(&self, key: &str) -> Option<f64> {
+        let mut path = key_path(key).ok()?;
+        if path.len() > 1 && path[0] == "urdf" {
+            path[0] = "plant".into();
+        }
+        let (last, parents) = path.split_last()?;
+        let mut table = &self.table;
+        for part in parents {
+            table = table.get(part.as_str())?.as_table()?;
+        }
+        match table.get(last.as_str())? {
+            toml::Value::Float(value) => Some(*value),
+            toml::Value::Integer(value) => Some(*value as f64),
+            _ => None,
+        }
+    }
+
     /// Sets a dotted key to a value: the one path of `set` and `assign`. A numeric segment
     /// indexes an array of tables (`metrics.0.from`, `faults.1.start`); a leading `urdf.` is the
     /// `[plant]` table (the URDF's values: `urdf.link.ram.mass`).

@@ -151,6 +151,49 @@ pub struct Scenario {
     /// are allowed without an entry.
     #[serde(default)]
     pub allowed_contacts: Vec<AllowedContact>,
+    /// How `twin calibrate` fits this scenario to measured runs (`[calibration]`); the command
+    /// line adds to it. Runs ignore it.
+    pub calibration: Option<CalibrationSpec>,
+}
+
+/// `[calibration]`: the runs, the parameters and the options of `twin calibrate`; file paths
+/// are relative to the scenario file.
+#[derive(Debug, Clone, Default, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields, default)]
+pub struct CalibrationSpec {
+    /// The measured runs fitted (`--data`).
+    pub data: Vec<String>,
+    /// Runs replayed after the fit, never fitted (`--validate`).
+    pub validate: Vec<String>,
+    /// The parameters by scenario key (`--fit`, `--bounds`, `--per-run`).
+    pub fit: BTreeMap<String, FitSpec>,
+    /// The fitted signals (`--signal`); empty: every logged one.
+    pub signals: Vec<String>,
+    /// Noise σ per signal, SI (`--noise`); others are estimated from the data.
+    pub noise: BTreeMap<String, f64>,
+    /// Segment length, s (`--segment`).
+    pub segment: Option<f64>,
+    /// Start states fitted per segment: `auto`, `none` or joints separated by commas
+    /// (`--states`).
+    pub states: Option<String>,
+    /// Replay the runs with the scenario's controller on the logged reference (`--closed-loop`).
+    pub closed_loop: bool,
+    /// Starts of the solve (`--starts`).
+    pub starts: Option<usize>,
+    /// Column renames, old name = new name (`--map`).
+    pub map: BTreeMap<String, String>,
+}
+
+/// One parameter of `[calibration.fit]`.
+#[derive(Debug, Clone, Default, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields, default)]
+pub struct FitSpec {
+    /// Where the fit starts (default: the scenario's or the URDF's value).
+    pub start: Option<f64>,
+    /// Lowest and highest value allowed.
+    pub bounds: Option<[f64; 2]>,
+    /// Fitted once per run rather than shared by all.
+    pub per_run: bool,
 }
 
 /// A joint's state at t = 0, in the joint's own sense (rad or m, rad/s or m/s).

@@ -9,11 +9,18 @@ Three ways in, all in SI units:
   period at a time (``sim.step(efforts) -> measurements``), so a Python loop is the controller;
 * ``twin.gym`` registers a Gymnasium environment per machine (``twin/Whitworth-v0``, …).
 
+Against a machine's measured runs (CSV, Parquet or a twin ``.rrd``, as ``RunResult.to_csv`` and
+``to_parquet`` write them): ``Scenario(name).compare(path)`` replays a run and reports how far the
+twin is from it, per signal; ``twin.calibrate(scenario, paths, fit=[key, …])`` fits scenario
+values to runs and returns the estimates with their intervals and the calibrated scenario.
+
 Errors are exceptions beneath :class:`TwinError` that name the key, actuator or file at fault.
 """
 
 from ._twin import (
+    CalibrationError,
     ControllerError,
+    DataError,
     DivergedError,
     RunResult,
     Scenario,
@@ -21,12 +28,15 @@ from ._twin import (
     Simulator,
     StepError,
     TwinError,
+    calibrate,
     controllers,
     scenarios,
 )
 
 __all__ = [
+    "CalibrationError",
     "ControllerError",
+    "DataError",
     "DivergedError",
     "RunResult",
     "Scenario",
@@ -34,6 +44,7 @@ __all__ = [
     "Simulator",
     "StepError",
     "TwinError",
+    "calibrate",
     "controllers",
     "scenarios",
 ]

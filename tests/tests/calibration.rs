@@ -1,0 +1,502 @@
+//! Calibration against a truth the tests hide in the data: runs made by the twin with perturbed
+//! masses, damping, friction and a sensor bias (noise-free, then noisy over many seeds), fitted
+//! back from the nominal scenario; and every refusal of the check.
+
+use std::path::{Path, PathBuf};
+use twin::calibration::{
+    calibrate, compare, Calibration, CalibrationError, CalibrationOptions, FitParameter,
+    StartStates,
+};
+use twin::data::{RunData, RunTable};
+use twin::{Scenario, ScenarioBuilder, Twin};
+
+/// A folder of its own under the system's temporary folder, for one test's files.
+fn folder(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("twin-calibration-{name}-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+/// Runs `builder` under its controller and reads back the CSV the run wrote.
+fn record(builder: ScenarioBuilder, file: &Path) -> RunData {
+    let loaded = builder.build(&controllers::builtin()).unwrap();
+    let mut table = RunTable::new(Some(file.to_path_buf()), None);
+    let summary = Twin::new(loaded)
+        .unwrap()
+        .run_with(None, &mut [&mut table])
+        .unwrap();
+    assert!(summary.failure.is_none(), "{:?}", summary.failure);
+    RunData::read(file, &[]).unwrap()
+}
+
+/// The Whitworth's crank-speed loop, `seconds` long, with an ideal crank encoder (its 10,000
+/// counts per turn would be noise the noise-free tests do not want).
+fn whitworth(seconds: f64) -> ScenarioBuilder {
+    Scenario::builtin("whitworth-crank-pi")
+        .unwrap()
+        .duration(seconds)
+        .set("sensors.\"crank.position\".resolution", 0.0)
+        .unwrap()
+}
+
+fn hide(mut builder: ScenarioBuilder, truth: &[(&str, f64)]) -> ScenarioBuilder {
+    for (key, value) in truth {
+        builder = builder.set(key, *value).unwrap();
+    }
+    builder
+}
+
+fn fit(keys: &[&str]) -> Vec<FitParameter> {
+    keys.iter()
+        .map(|key| FitParameter {
+            key: key.to_string(),
+            start: None,
+            bounds: None,
+            per_run: false,
+        })
+        .collect()
+}
+
+fn run_calibration(
+    builder: &ScenarioBuilder,
+    data: &[RunData],
+    validate: &[RunData],
+    options: &CalibrationOptions,
+) -> Result<Calibration, CalibrationError> {
+    calibrate(
+        builder,
+        &controllers::builtin(),
+        data,
+        validate,
+        options,
+        &mut |_| {},
+    )
+}
+
+fn estimate(result: &Calibration, key: &str) -> f64 {
+    result
+        .estimates
+        .iter()
+        .find(|e| e.key == key)
+        .unwrap()
+        .estimate
+}
+
+#[test]
+fn replaying_its_own_run_reproduces_it() {
+    let dir = folder("replay");
+    let data = record(whitworth(2.0), &dir.join("run.csv"));
+    let comparison = compare(&whitworth(2.0), &controllers::builtin(), &data, false).unwrap();
+    assert!(!comparison.signals.is_empty());
+    for fit in &comparison.signals {
+        assert!(
+            fit.fit_percent > 99.999,
+            "{}: {}",
+            fit.signal,
+            fit.fit_percent
+        );
+    }
+}
+
+#[test]
+fn noise_free_whitworth_data_return_the_hidden_values() {
+    let dir = folder("whitworth-truth");
+    let truth = [
+        ("urdf.link.ram.mass", 6.2),
+        ("urdf.joint.crank.damping", 0.08),
+        ("urdf.link.slotted_link.izz", 0.21),
+        ("sensors.\"crank.position\".bias", 2e-3),
+    ];
+    let data = record(hide(whitworth(3.0), &truth), &dir.join("run.csv"));
+    let options = CalibrationOptions {
+        parameters: fit(&truth.map(|(key, _)| key)),
+        ..CalibrationOptions::default()
+    };
+    let result = run_calibration(&whitworth(3.0), &[data], &[], &options).unwrap();
+    for (key, value) in truth {
+        let found = estimate(&result, key);
+        assert!(
+            ((found - value) / value).abs() <= 1e-6,
+            "{key}: {found} for {value}"
+        );
+    }
+    for fit in &result.runs[0].after {
+        assert!(
+            fit.fit_percent > 99.9999,
+            "{}: {}",
+            fit.signal,
+            fit.fit_percent
+        );
+    }
+}
+
+/// Each machine's plant values, hidden in a noise-free run and fitted back from the nominal
+/// scenario: (scenario, seconds, the truth, what else the scenario needs).
+fn recovered(
+    scenario: &str,
+    seconds: f64,
+    truth: &[(&str, f64)],
+    setup: &[(&str, f64)],
+    states: StartStates,
+) -> Calibration {
+    let dir = folder(scenario);
+    let mut nominal = Scenario::builtin(scenario).unwrap().duration(seconds);
+    for (key, value) in setup {
+        nominal = nominal.set(key, *value).unwrap();
+    }
+    let data = record(hide(nominal.clone(), truth), &dir.join("run.csv"));
+    let options = CalibrationOptions {
+        parameters: fit(&truth.iter().map(|(key, _)| *key).collect::<Vec<_>>()),
+        states,
+        ..CalibrationOptions::default()
+    };
+    run_calibration(&nominal, &[data], &[], &options).unwrap()
+}
+
+fn assert_recovered(result: &Calibration, truth: &[(&str, f64)], tolerance: f64) {
+    for (key, value) in truth {
+        let found = estimate(result, key);
+        assert!(
+            ((found - value) / value).abs() <= tolerance,
+            "{key}: {found} for {value} ({:?})",
+            result.estimates
+        );
+    }
+}
+
+#[test]
+fn noise_free_runs_of_every_machine_return_their_hidden_values() {
+    let arm = [
+        ("urdf.link.forearm.mass", 5.75),
+        ("urdf.joint.elbow.damping", 0.45),
+    ];
+    let result = recovered("arm-milling", 1.0, &arm, &[], StartStates::Automatic);
+    assert_recovered(&result, &arm, 1e-6);
+
+    let feed = [
+        ("urdf.link.table.mass", 11.5),
+        ("urdf.joint.table.damping", 270.0),
+    ];
+    let ideal = [("sensors.\"table.position\".resolution", 0.0)];
+    let result = recovered(
+        "feed-axis-micromilling",
+        0.5,
+        &feed,
+        &ideal,
+        StartStates::Automatic,
+    );
+    assert_recovered(&result, &feed, 1e-6);
+
+    // Before and into the first cut: once both tools cut, the tool's contact makes the cost
+    // non-smooth and the solve stops in a kink short of the truth.
+    let lathe = [
+        ("urdf.link.slide_1.mass", 230.0),
+        ("urdf.link.part.izz", 0.09),
+    ];
+    let result = recovered("lathe-turning", 0.5, &lathe, &[], StartStates::Automatic);
+    assert_recovered(&result, &lathe, 1e-6);
+
+    // The tyres' saturation slip and the chassis mass, from the wheel encoders and currents.
+    let platform = [
+        ("process.tyre.saturation_slip", 0.12),
+        ("urdf.link.chassis.mass", 3.2),
+    ];
+    let ideal = [
+        ("sensors.\"left_wheel.position\".resolution", 0.0),
+        ("sensors.\"right_wheel.position\".resolution", 0.0),
+    ];
+    let result = recovered(
+        "platform-path",
+        3.0,
+        &platform,
+        &ideal,
+        StartStates::Automatic,
+    );
+    assert_recovered(&result, &platform, 1e-6);
+    assert_eq!(
+        result.segments, 1,
+        "the floor joints are not logged: whole runs"
+    );
+
+    // The teeth entering and leaving the cut make the milling cost non-smooth: the solve stops
+    // in a kink near the truth (measured 1.6e-5 off on the stiffness, 2.0e-4 on the damping).
+    let milling = [
+        ("urdf.joint.tool_x.stiffness", 1.5e6),
+        ("urdf.joint.tool_x.damping", 13.0),
+    ];
+    let result = recovered("milling-z04", 0.05, &milling, &[], StartStates::Fixed);
+    assert_recovered(&result, &milling, 1e-3);
+}
+
+/// A noisy Whitworth run: every fitted signal's sensor with Gaussian noise of its σ.
+fn noisy_whitworth(seconds: f64, seed: u64, truth: &[(&str, f64)]) -> ScenarioBuilder {
+    let mut builder = hide(whitworth(seconds), truth).seed(seed);
+    for (signal, sigma) in NOISE {
+        builder = builder
+            .set(&format!("sensors.\"{signal}\".noise"), sigma)
+            .unwrap();
+    }
+    builder
+}
+
+const NOISE: [(&str, f64); 3] = [
+    ("crank.position", 1e-3),
+    ("crank.velocity", 5e-3),
+    ("ram.position", 1e-4),
+];
+
+fn noisy_options(keys: &[&str]) -> CalibrationOptions {
+    CalibrationOptions {
+        parameters: fit(keys),
+        signals: NOISE.map(|(signal, _)| signal.to_string()).to_vec(),
+        ..CalibrationOptions::default()
+    }
+}
+
+#[test]
+fn intervals_cover_the_truth_in_at_least_90_percent_of_40_noisy_runs() {
+    let dir = folder("coverage");
+    let truth = [
+        ("urdf.link.ram.mass", 5.9),
+        ("urdf.joint.crank.damping", 0.06),
+    ];
+    let options = noisy_options(&truth.map(|(key, _)| key));
+    let mut covered = [0; 2];
+    for seed in 0..40 {
+        let file = dir.join(format!("run-{seed}.csv"));
+        let data = record(noisy_whitworth(3.0, seed, &truth), &file);
+        let result = run_calibration(&whitworth(3.0), &[data], &[], &options).unwrap();
+        assert_eq!(
+            result.start_states, 6,
+            "three 1 s segments, the crank's state in each"
+        );
+        for (count, (key, value)) in covered.iter_mut().zip(truth) {
+            let e = result.estimates.iter().find(|e| e.key == key).unwrap();
+            *count += usize::from(e.interval[0] <= value && value <= e.interval[1]);
+        }
+    }
+    assert!(
+        covered.iter().all(|&c| c >= 36),
+        "covered of 40: {covered:?}"
+    );
+}
+
+#[test]
+fn a_run_with_another_excitation_is_predicted_after_the_fit() {
+    let dir = folder("validation");
+    let truth = [
+        ("urdf.link.ram.mass", 5.9),
+        ("urdf.joint.crank.damping", 0.06),
+    ];
+    let data = record(noisy_whitworth(3.0, 1, &truth), &dir.join("run.csv"));
+    let other = noisy_whitworth(3.0, 2, &truth)
+        .set("controller.params.crank_speed", -10.0)
+        .unwrap();
+    let validation = record(other, &dir.join("validation.csv"));
+    let options = noisy_options(&truth.map(|(key, _)| key));
+    let result = run_calibration(&whitworth(3.0), &[data], &[validation], &options).unwrap();
+    let run = &result.validation[0];
+    for (before, after) in run.before.iter().zip(&run.after) {
+        assert!(
+            after.fit_percent >= 99.0,
+            "{}: {}",
+            after.signal,
+            after.fit_percent
+        );
+        assert!(after.fit_percent >= before.fit_percent, "{}", after.signal);
+    }
+}
+
+#[test]
+fn a_per_run_parameter_is_fitted_in_each_run_and_a_shared_one_once() {
+    let dir = folder("per-run");
+    let runs: Vec<RunData> = [5.4, 6.6]
+        .iter()
+        .enumerate()
+        .map(|(k, mass)| {
+            let truth = [
+                ("urdf.link.ram.mass", *mass),
+                ("urdf.joint.crank.damping", 0.06),
+            ];
+            record(
+                hide(whitworth(2.0), &truth),
+                &dir.join(format!("run-{k}.csv")),
+            )
+        })
+        .collect();
+    let mut parameters = fit(&["urdf.link.ram.mass", "urdf.joint.crank.damping"]);
+    parameters[0].per_run = true;
+    let options = CalibrationOptions {
+        parameters,
+        ..CalibrationOptions::default()
+    };
+    let result = run_calibration(&whitworth(2.0), &runs, &[], &options).unwrap();
+    let masses: Vec<f64> = (result.estimates.iter())
+        .filter(|e| e.key == "urdf.link.ram.mass")
+        .map(|e| e.estimate)
+        .collect();
+    assert_eq!(masses.len(), 2);
+    assert!(
+        (masses[0] / 5.4 - 1.0).abs() < 1e-6 && (masses[1] / 6.6 - 1.0).abs() < 1e-6,
+        "{masses:?}"
+    );
+    assert!((estimate(&result, "urdf.joint.crank.damping") / 0.06 - 1.0).abs() < 1e-6);
+}
+
+#[test]
+fn the_calibrated_scenario_runs_with_the_fitted_values() {
+    let dir = folder("calibrated");
+    let truth = [("urdf.link.ram.mass", 6.2)];
+    let data = record(hide(whitworth(1.0), &truth), &dir.join("run.csv"));
+    let options = CalibrationOptions {
+        parameters: fit(&["urdf.link.ram.mass"]),
+        ..CalibrationOptions::default()
+    };
+    let result = run_calibration(&whitworth(1.0), &[data], &[], &options).unwrap();
+    let text = &result.calibrated_toml;
+    assert!(
+        text.starts_with("# Calibrated by `twin calibrate`"),
+        "{text}"
+    );
+    assert!(text.contains("sha256"), "{text}");
+    let builder = Scenario::from_toml(text, "calibrated.toml", None).unwrap();
+    assert_eq!(
+        builder.number("urdf.link.ram.mass"),
+        Some(estimate(&result, "urdf.link.ram.mass"))
+    );
+    let loaded = builder.build(&controllers::builtin()).unwrap();
+    assert!(Twin::new(loaded)
+        .unwrap()
+        .run(None)
+        .unwrap()
+        .failure
+        .is_none());
+}
+
+fn refusal(builder: &ScenarioBuilder, data: &RunData, options: &CalibrationOptions) -> String {
+    let error = run_calibration(builder, std::slice::from_ref(data), &[], options).unwrap_err();
+    let message = error.to_string();
+    assert!(!message.contains('\n'), "one line: {message}");
+    message
+}
+
+#[test]
+fn the_check_refuses_what_the_data_cannot_determine() {
+    let dir = folder("refusals");
+    let data = record(whitworth(1.0), &dir.join("run.csv"));
+    let options = |keys: &[&str]| CalibrationOptions {
+        parameters: fit(keys),
+        ..CalibrationOptions::default()
+    };
+    // Open loop, the controller's gains never act.
+    let message = refusal(
+        &whitworth(1.0),
+        &data,
+        &options(&["controller.params.natural_frequency"]),
+    );
+    assert!(
+        message.contains("controller.params.natural_frequency has no effect"),
+        "{message}"
+    );
+
+    let mut bounded = options(&["urdf.link.ram.mass"]);
+    bounded.parameters[0].bounds = Some([6.0, 7.0]);
+    let message = refusal(&whitworth(1.0), &data, &bounded);
+    assert!(
+        message.contains("the start 5 lies outside the bounds [6, 7]"),
+        "{message}"
+    );
+
+    let mut twice = options(&["urdf.link.ram.mass", "urdf.link.ram.mass"]);
+    twice.parameters[1].start = Some(5.5);
+    let message = refusal(&whitworth(1.0), &data, &twice);
+    assert!(message.contains("given twice"), "{message}");
+
+    let message = refusal(
+        &whitworth(1.0),
+        &data,
+        &options(&["urdf.link.no_such_link.mass"]),
+    );
+    assert!(message.contains("no_such_link"), "{message}");
+
+    let short = record(whitworth(0.002), &dir.join("short.csv"));
+    let message = refusal(
+        &whitworth(0.002),
+        &short,
+        &options(&["urdf.link.ram.mass", "urdf.joint.crank.damping"]),
+    );
+    assert!(message.contains("samples"), "{message}");
+
+    let mut segments = options(&["urdf.link.ram.mass"]);
+    segments.segment = Some(-1.0);
+    let message = refusal(&whitworth(1.0), &data, &segments);
+    assert!(message.contains("--segment -1"), "{message}");
+}
+
+#[test]
+fn parameters_the_data_cannot_tell_apart_are_named() {
+    // Without gravity the upper arm's mass m and inertia I act on the arm only through its
+    // inertia about the shoulder, I + m·d²: the data determine that sum and nothing else.
+    let dir = folder("confounded");
+    let arm = Scenario::builtin("arm-milling")
+        .unwrap()
+        .duration(0.5)
+        .set("gravity", [0.0, 0.0])
+        .unwrap();
+    let data = record(arm.clone(), &dir.join("run.csv"));
+    let options = CalibrationOptions {
+        parameters: fit(&["urdf.link.upper_arm.mass", "urdf.link.upper_arm.izz"]),
+        ..CalibrationOptions::default()
+    };
+    let message = refusal(&arm, &data, &options);
+    assert!(
+        message
+            .contains("urdf.link.upper_arm.mass and urdf.link.upper_arm.izz cannot be told apart")
+            || message.contains(
+                "urdf.link.upper_arm.izz and urdf.link.upper_arm.mass cannot be told apart"
+            ),
+        "{message}"
+    );
+    assert!(message.contains("is determined"), "{message}");
+}
+
+#[test]
+fn an_open_loop_replay_needs_every_command_and_a_map_renames_a_log() {
+    let dir = folder("commands");
+    record(whitworth(0.5), &dir.join("run.csv"));
+    let text = std::fs::read_to_string(dir.join("run.csv")).unwrap();
+    // The machine's log: its own name for the motor torque; without it, no command at all.
+    let renamed = dir.join("renamed.csv");
+    std::fs::write(
+        &renamed,
+        text.replacen("effort.crank [N·m]", "motor [N·m]", 1),
+    )
+    .unwrap();
+    let without: String = text
+        .lines()
+        .map(|line| {
+            line.split(',')
+                .enumerate()
+                .filter(|(i, _)| *i != 1)
+                .map(|(_, c)| c)
+                .collect::<Vec<_>>()
+                .join(",")
+        })
+        .collect::<Vec<_>>()
+        .join("\n");
+    let missing = dir.join("missing.csv");
+    std::fs::write(&missing, without).unwrap();
+    let registry = controllers::builtin();
+    let data = RunData::read(&missing, &[]).unwrap();
+    let message = compare(&whitworth(0.5), &registry, &data, false)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        message.contains("no column effort.crank [N·m]"),
+        "{message}"
+    );
+    let map = [("motor".to_string(), "effort.crank".to_string())];
+    let data = RunData::read(&renamed, &map).unwrap();
+    let comparison = compare(&whitworth(0.5), &registry, &data, false).unwrap();
+    assert!(comparison.signals.iter().all(|s| s.fit_percent > 99.999));
+}

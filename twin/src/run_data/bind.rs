@@ -1,0 +1,193 @@
+//! A run's table bound to a plant: every column named as the plant's command, measured or true
+//! signal, in a unit that fits it (converted to SI), and resampled onto the control period's
+//! grid: rows already on it are taken exactly; otherwise measured and true signals are
+//! interpolated linearly and commands held (zero-order hold), as the controller held them.
+
+use super::units::{factor, to_si};
+use super::{ColumnRole, DataError, DataRate, PlantColumns, RunData, Trace};
+
+/// Most grid points a resampling makes (about 400 MB per column): a period far below the data's
+/// own would otherwise ask for more memory than there is.
+const MAX_SAMPLES: usize = 50_000_000;
+/// Rows closer than this many periods to a grid point are on it.
+const ON_GRID: f64 = 1e-9;
+/// Names listed in a refusal of an unknown column before "… and N more".
+const KNOWN_LISTED: usize = 12;
+
+/// Where grid point `k` falls among the rows: row `row`, and `weight` of the way to the next
+/// (0 when on the row).
+#[derive(Debug, Clone, Copy)]
+struct Place {
+    row: usize,
+    weight: f64,
+}
+
+impl RunData {
+    /// Checks every column's name (a known command `effort.<actuator>`, measured signal
+    /// `<signal>` or true signal `true.<signal>`) and unit (converted to the plant's SI unit
+    /// where known), and resamples the rows onto `t_k = t_0 + k·period` from the first time to
+    /// the last. Refuses fewer than two rows, a non-positive period, and fewer than
+    /// `min_samples` grid points.
+    pub fn bind(
+        &self,
+        plant: &PlantColumns,
+        period: f64,
+        min_samples: usize,
+    ) -> Result<Trace, DataError> {
+        let format = |reason: String| DataError::Format {
+            file: self.source.clone(),
+            reason,
+        };
+        if !(period.is_finite() && period > 0.0) {
+            return Err(format(format!(
+                "cannot resample onto a control period of {period} s; it must be positive"
+            )));
+        }
+        let rows = self.time.len();
+        if rows < 2 || self.columns.iter().any(|c| c.values.len() != rows) {
+            return Err(format(format!(
+                "{rows} rows of data; at least two are needed, every column as long as `time`"
+            )));
+        }
+        let bound = self.bind_columns(plant)?;
+        let (places, resampled) = self.grid(period)?;
+        if places.len() < min_samples {
+            return Err(format(format!(
+                "{} samples at the control period {period} s ({} s of data); {min_samples} are \
+                 needed",
+                places.len(),
+                self.time[rows - 1] - self.time[0]
+            )));
+        }
+        let mut trace = Trace {
+            source: self.source.clone(),
+            digest: self.digest.clone(),
+            period,
+            start_time: self.time[0],
+            samples: places.len(),
+            commands: vec![None; plant.actuators.len()],
+            measured: vec![None; plant.signals.len()],
+            truth: vec![None; plant.signals.len()],
+            rate: self.rate(resampled),
+        };
+        for (role, index, values) in bound {
+            let slot = match role {
+                ColumnRole::Command => &mut trace.commands[index],
+                ColumnRole::Measured => &mut trace.measured[index],
+                ColumnRole::True => &mut trace.truth[index],
+            };
+            *slot = Some(match (resampled, role) {
+                (false, _) => values,
+                (true, ColumnRole::Command) => places.iter().map(|p| values[p.row]).collect(),
+                (true, _) => places.iter().map(|p| interpolate(&values, *p)).collect(),
+            });
+        }
+        Ok(trace)
+    }
+
+    /// Every column's role, index and SI values; an unknown name or a unit that does not fit
+    /// is refused.
+    fn bind_columns(
+        &self,
+        plant: &PlantColumns,
+    ) -> Result<Vec<(ColumnRole, usize, Vec<f64>)>, DataError> {
+        let mut bound = Vec::with_capacity(self.columns.len());
+        for column in &self.columns {
+            let error = |reason: String| DataError::Column {
+                file: self.source.clone(),
+                column: RunData::header(column),
+                reason,
+            };
+            let (role, index) = plant
+                .role_of(&column.name)
+                .ok_or_else(|| error(unknown(&column.name, plant)))?;
+            let si = match role {
+                ColumnRole::Command => &plant.actuators[index].1,
+                _ => &plant.signals[index].1,
+            };
+            let factor = factor(&column.unit, &column.name, si).map_err(error)?;
+            bound.push((role, index, to_si(&column.values, factor)));
+        }
+        Ok(bound)
+    }
+
+    /// The grid's places among the rows, and whether they are off it (resampled). Rows all
+    /// within [`ON_GRID`] periods of `t_0 + k·period` are the grid.
+    fn grid(&self, period: f64) -> Result<(Vec<Place>, bool), DataError> {
+        let time = &self.time;
+        let (first, last) = (time[0], time[time.len() - 1]);
+        let tolerance = ON_GRID * period;
+        let on_grid = (time.iter().enumerate())
+            .all(|(k, &t)| (t - (first + k as f64 * period)).abs() <= tolerance);
+        if on_grid {
+            let places = (0..time.len()).map(|row| Place { row, weight: 0.0 });
+            return Ok((places.collect(), false));
+        }
+        let span = ((last - first) / period + ON_GRID).floor();
+        if span >= MAX_SAMPLES as f64 {
+            return Err(DataError::Format {
+                file: self.source.clone(),
+                reason: format!(
+                    "{} s of data at the control period {period} s make more than \
+                     {MAX_SAMPLES} samples; split the run",
+                    last - first
+                ),
+            });
+        }
+        let mut places = Vec::with_capacity(span as usize + 1);
+        let mut row = 0;
+        for k in 0..=span as usize {
+            let t = first + k as f64 * period;
+            while row + 1 < time.len() && time[row + 1] <= t + tolerance {
+                row += 1;
+            }
+            let weight = match time.get(row + 1) {
+                Some(&next) if (t - time[row]).abs() > tolerance => {
+                    ((t - time[row]) / (next - time[row])).clamp(0.0, 1.0)
+                }
+                _ => 0.0,
+            };
+            places.push(Place { row, weight });
+        }
+        Ok((places, true))
+    }
+
+    /// The data's own time steps.
+    fn rate(&self, resampled: bool) -> DataRate {
+        let steps = self.time.windows(2).map(|pair| pair[1] - pair[0]);
+        let rows = self.time.len();
+        DataRate {
+            mean_period: (self.time[rows - 1] - self.time[0]) / (rows - 1) as f64,
+            min_period: steps.clone().fold(f64::INFINITY, f64::min),
+            max_period: steps.fold(0.0, f64::max),
+            resampled,
+        }
+    }
+}
+
+/// The value at `place`, linear between its row and the next.
+fn interpolate(values: &[f64], place: Place) -> f64 {
+    let here = values[place.row];
+    if place.weight == 0.0 {
+        return here;
+    }
+    here + place.weight * (values[place.row + 1] - here)
+}
+
+/// The refusal of an unknown column: the names the plant knows, shortened.
+fn unknown(name: &str, plant: &PlantColumns) -> String {
+    let commands =
+        (plant.actuators.iter()).map(|(a, _)| PlantColumns::column_name(ColumnRole::Command, a));
+    let signals = plant.signals.iter().map(|(s, _)| s.clone());
+    let known: Vec<String> = commands.chain(signals).collect();
+    let listed = known.len().min(KNOWN_LISTED);
+    let more = match known.len() - listed {
+        0 => String::new(),
+        n => format!(" and {n} more"),
+    };
+    format!(
+        "unknown signal {name} (known: {}{more}; each signal also as true.<signal>; rename \
+         with --map {name}=<known>)",
+        known[..listed].join(", ")
+    )
+}

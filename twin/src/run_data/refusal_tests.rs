@@ -1,0 +1,315 @@
+//! Every refusal of the data format by its message, Parquet columns of other types, and
+//! malformed files (mutated CSV and Parquet, cut recordings) refused without a panic.
+
+use super::tests::{loaded, scratch, small_plant, write};
+use super::*;
+use crate::run::Twin;
+use std::sync::Arc;
+
+/// The message of reading `text` as `name` and binding it to the small plant at 1 ms.
+fn refusal(dir: &Path, name: &str, text: &str) -> String {
+    let path = write(dir, name, text);
+    match RunData::read(&path, &[]).and_then(|d| d.bind(&small_plant(), 1e-3, 2)) {
+        Ok(_) => panic!("{name} was accepted:\n{text}"),
+        Err(error) => error.to_string(),
+    }
+}
+
+#[test]
+fn every_refusal_names_the_file_and_the_row_or_column() {
+    let dir = scratch("refusals");
+    let file = |name: &str| dir.join(name).display().to_string();
+    for (name, text, expected) in refusal_cases() {
+        let message = refusal(&dir, name, &text);
+        assert!(
+            message.starts_with(&format!("{}: ", file(name)))
+                && message.contains(expected)
+                && !message.contains('\n'),
+            "{name}: {message}\nexpected: {expected}"
+        );
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn unreadable_files_and_bad_renames_are_refused() {
+    let dir = scratch("unreadable");
+    let file = |name: &str| dir.join(name).display().to_string();
+    let binary = dir.join("binary.csv");
+    std::fs::write(&binary, [0xff, 0xfe, 0x00, 0x80]).unwrap();
+    let message = RunData::read(&binary, &[]).unwrap_err().to_string();
+    assert!(
+        message.contains("not a CSV file: it is not UTF-8 text"),
+        "{message}"
+    );
+    let missing = RunData::read(&dir.join("missing.csv"), &[])
+        .unwrap_err()
+        .to_string();
+    assert!(missing.starts_with(&format!("cannot read {}: ", file("missing.csv"))));
+    let folder = RunData::read(&dir, &[]).unwrap_err().to_string();
+    assert!(folder.contains("not a data file"), "{folder}");
+    for (args, expected) in [
+        ("pos", "give old=new"),
+        ("=x", "both names"),
+        ("a=b[m]", "brackets"),
+    ] {
+        let message = parse_renames(&[args.to_owned()]).unwrap_err().to_string();
+        assert!(message.starts_with(&format!("--map `{args}`: ")) && message.contains(expected));
+    }
+    let unwritable = RunData::default().write_csv(&dir.join("nowhere/run.csv"));
+    assert!(unwritable
+        .unwrap_err()
+        .to_string()
+        .contains("does not exist"));
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// Each malformed file (name, text) with the words its refusal must hold.
+fn refusal_cases() -> Vec<(&'static str, String, &'static str)> {
+    let head = "time [s],ram_position [m],crank.position [rad]\n";
+    vec![
+        (
+            "empty.csv",
+            format!("{head}0,1,2\n0.001,,2\n"),
+            "row 3, column \"ram_position [m]\": empty cell",
+        ),
+        (
+            "nan.csv",
+            format!("{head}0,1,2\n0.001,1,NaN\n"),
+            "row 3, column \"crank.position [rad]\": NaN is not a finite number",
+        ),
+        (
+            "word.csv",
+            format!("{head}0,1,abc\n"),
+            "row 2, column \"crank.position [rad]\": `abc` is not a number",
+        ),
+        (
+            "time.csv",
+            format!("{head}0,1,2\n0.002,1,2\n0.001,1,2\n"),
+            "row 4: time 0.001 s is not after the row before's 0.002 s",
+        ),
+        (
+            "cells.csv",
+            format!("{head}0,1,2\n0.001,1\n"),
+            "row 3: 2 cells where the header has 3",
+        ),
+        (
+            "notime.csv",
+            "t [s],ram_position [m]\n0,1\n0.001,2\n".to_owned(),
+            "no `time [s]` column",
+        ),
+        (
+            "twice.csv",
+            "time [s],ram_position [m],ram_position [mm]\n0,1,2\n".to_owned(),
+            "column \"ram_position [mm]\": a second column named ram_position",
+        ),
+        (
+            "nounit.csv",
+            "time [s],ram_position\n0,1\n".to_owned(),
+            "column \"ram_position\": no unit: give it in brackets after the name, e.g. \
+             \"ram_position [m]\"",
+        ),
+        (
+            "unknown.csv",
+            "time [s],ram_speed [m/s]\n0,1\n0.001,2\n".to_owned(),
+            "column \"ram_speed [m/s]\": unknown signal ram_speed (known: effort.crank, \
+             ram_position, crank.position;",
+        ),
+        (
+            "run.csv",
+            "time [s],ram_position [deg]\n0,1\n0.001,2\n".to_owned(),
+            "column \"ram_position [deg]\": unit deg does not fit ram_position, which is in m \
+             (give m, mm or µm)",
+        ),
+        (
+            "timeunit.csv",
+            "time [mm],ram_position [m]\n0,1\n".to_owned(),
+            "column \"time [mm]\": unit mm does not fit time, which is in s (give s or ms)",
+        ),
+        (
+            "short.csv",
+            format!("{head}0,1,2\n0.0005,1,2\n"),
+            "1 samples at the control period 0.001 s (0.0005 s of data); 2 are needed",
+        ),
+        (
+            "one.csv",
+            format!("{head}0,1,2\n"),
+            "1 rows of data; at least two are needed",
+        ),
+        (
+            "run.txt",
+            format!("{head}0,1,2\n"),
+            "not a data file by its extension (`.txt`)",
+        ),
+        (
+            "blank.csv",
+            "\n\n".to_owned(),
+            "not a CSV file: it is empty",
+        ),
+        (
+            "quote.csv",
+            "time [s],\"ram_position [m]\n0,1\n".to_owned(),
+            "not a CSV file: its header has an unclosed quote",
+        ),
+        (
+            "garbage.parquet",
+            format!("{head}0,1,2\n"),
+            "not a Parquet file of numbers",
+        ),
+        (
+            "garbage.rrd",
+            format!("{head}0,1,2\n"),
+            "not a twin run's recording",
+        ),
+    ]
+}
+
+/// A Parquet file of columns of the given types and values.
+fn parquet_of(path: &Path, columns: Vec<(&str, arrow_array::ArrayRef)>) {
+    use arrow_schema::{Field, Schema};
+    let fields: Vec<Field> = (columns.iter())
+        .map(|(name, array)| Field::new(*name, array.data_type().clone(), true))
+        .collect();
+    let schema = Arc::new(Schema::new(fields));
+    let arrays = columns.into_iter().map(|(_, array)| array).collect();
+    let batch = arrow_array::RecordBatch::try_new(schema.clone(), arrays).unwrap();
+    let mut bytes = Vec::new();
+    let mut writer = parquet::arrow::ArrowWriter::try_new(&mut bytes, schema, None).unwrap();
+    writer.write(&batch).unwrap();
+    writer.close().unwrap();
+    std::fs::write(path, bytes).unwrap();
+}
+
+#[test]
+fn parquet_columns_of_other_number_types_are_read_and_others_refused() {
+    use arrow_array::{Float32Array, Float64Array, Int64Array, StringArray};
+    let dir = scratch("parquet-types");
+    let path = dir.join("types.parquet");
+    parquet_of(
+        &path,
+        vec![
+            ("time [ms]", Arc::new(Int64Array::from(vec![0, 1, 2]))),
+            (
+                "ram_position [mm]",
+                Arc::new(Float32Array::from(vec![0.5, 1.5, 2.5])),
+            ),
+        ],
+    );
+    let data = RunData::read(&path, &[]).expect("reads");
+    assert_eq!(data.time, [0.0, 1e-3, 2e-3]);
+    assert_eq!(data.column("ram_position").unwrap().values, [0.5, 1.5, 2.5]);
+    parquet_of(
+        &path,
+        vec![
+            ("time [s]", Arc::new(Float64Array::from(vec![0.0, 1.0]))),
+            (
+                "ram_position [m]",
+                Arc::new(StringArray::from(vec!["a", "b"])),
+            ),
+        ],
+    );
+    let message = RunData::read(&path, &[]).unwrap_err().to_string();
+    assert!(
+        message.contains("column \"ram_position [m]\": its values are Utf8, not numbers"),
+        "{message}"
+    );
+    parquet_of(
+        &path,
+        vec![
+            ("time [s]", Arc::new(Float64Array::from(vec![0.0, 1.0]))),
+            (
+                "ram_position [m]",
+                Arc::new(Float64Array::from(vec![Some(1.0), None])),
+            ),
+        ],
+    );
+    let message = RunData::read(&path, &[]).unwrap_err().to_string();
+    assert!(
+        message.contains("row 3, column \"ram_position [m]\": empty cell"),
+        "{message}"
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// A small deterministic generator (xorshift) for the mutations.
+struct Mutator(u64);
+
+impl Mutator {
+    fn next(&mut self, below: usize) -> usize {
+        self.0 ^= self.0 << 13;
+        self.0 ^= self.0 >> 7;
+        self.0 ^= self.0 << 17;
+        (self.0 % below.max(1) as u64) as usize
+    }
+
+    /// `bytes` with a few bytes deleted, replaced or inserted, or cut short.
+    fn mutate(&mut self, bytes: &[u8]) -> Vec<u8> {
+        const PIECES: [&[u8]; 10] = [
+            b",", b"\n", b"\"", b"[", b"]", b"NaN", b"-", b"1e999", b"\xff", b" ",
+        ];
+        let mut out = bytes.to_vec();
+        for _ in 0..1 + self.next(4) {
+            let at = self.next(out.len() + 1);
+            match self.next(4) {
+                0 if at < out.len() => {
+                    out.remove(at);
+                }
+                1 => out
+                    .splice(at..at, PIECES[self.next(PIECES.len())].iter().copied())
+                    .for_each(drop),
+                2 => out.truncate(at),
+                _ if at < out.len() => out[at] = self.next(256) as u8,
+                _ => {}
+            }
+        }
+        out
+    }
+}
+
+#[test]
+fn malformed_files_are_refused_without_a_panic() {
+    let dir = scratch("malformed");
+    let csv = "time [s],ram_position [mm],true.crank.position [deg],effort.crank [N·m]\n\
+               0,1,2,3\n0.001,1.5,2.5,3\n0.0025,2,3,4\n0.003,2.5,3.5,4\n";
+    let parquet_path = dir.join("seed.parquet");
+    let seed = RunData::read(&write(&dir, "seed.csv", csv), &[]).unwrap();
+    seed.write_parquet(&parquet_path).unwrap();
+    let parquet = std::fs::read(&parquet_path).unwrap();
+    let mut mutator = Mutator(0x9e37_79b9_7f4a_7c15);
+    let plant = small_plant();
+    let mut accepted = 0;
+    for case in 0..600 {
+        let (name, seed) = if case % 3 == 0 {
+            ("case.parquet", parquet.as_slice())
+        } else {
+            ("case.csv", csv.as_bytes())
+        };
+        let path = dir.join(name);
+        std::fs::write(&path, mutator.mutate(seed)).unwrap();
+        let result = RunData::read(&path, &[]).and_then(|d| d.bind(&plant, 1e-3, 1));
+        match result {
+            Ok(trace) => {
+                accepted += 1;
+                assert!(trace.samples >= 1);
+            }
+            Err(error) => assert!(!error.to_string().contains('\n'), "{error}"),
+        }
+    }
+    assert!(accepted > 0, "some mutations leave a valid file");
+    for cut in [0, 10, 100, 1000, 5000] {
+        let path = dir.join("cut.rrd");
+        let recording = make_recording(&dir);
+        std::fs::write(&path, &recording[..cut.min(recording.len())]).unwrap();
+        assert!(RunData::read(&path, &[]).is_err());
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// A short run's recording, as bytes.
+fn make_recording(dir: &Path) -> Vec<u8> {
+    let path = dir.join("short.rrd");
+    if !path.exists() {
+        Twin::new(loaded(0.01)).unwrap().run(Some(&path)).unwrap();
+    }
+    std::fs::read(&path).unwrap()
+}

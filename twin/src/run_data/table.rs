@@ -1,0 +1,136 @@
+//! [`RunTable`]: a run collected as a data file, one row per control update, written when the
+//! run ends (also after a divergence or an interruption).
+
+use std::path::PathBuf;
+
+use super::csv_file;
+use super::parquet_file;
+use super::{sha256_hex, ColumnRole, DataColumn, DataError, PlantColumns, RunData};
+use crate::output::OutputFile;
+use crate::run::{Findings, Observer, ObserverError, SignalLayout, StepView};
+
+/// A table's bytes in one of the file formats.
+type ToBytes = fn(&RunData) -> Result<Vec<u8>, String>;
+
+/// Collects a run into a [`RunData`] and writes it as CSV and/or Parquet when the run finishes
+/// (also after a divergence or an interruption: the rows up to there). Row k is the k-th control
+/// update: its time `t_k`; the efforts the controller commanded then (SI, before the limits),
+/// held over `[t_k, t_k + period)`; what the controller read then (`<signal>`); and the plant's
+/// true signals at `t_k` (`true.<signal>`).
+///
+/// The files are created (as temporaries beside their paths) when the run starts, so that an
+/// unwritable path stops it before its first step, and are renamed into place whole at its end;
+/// a run that fails otherwise leaves nothing.
+#[derive(Debug)]
+pub struct RunTable {
+    csv: Option<PathBuf>,
+    parquet: Option<PathBuf>,
+    /// The files being written, created at the run's start: CSV, Parquet.
+    files: [Option<OutputFile>; 2],
+    data: RunData,
+    actuators: usize,
+    signals: usize,
+}
+
+impl RunTable {
+    /// A table written to `csv` and/or `parquet` at the run's end (to neither: kept in memory
+    /// only, see [`RunTable::data`]).
+    pub fn new(csv: Option<PathBuf>, parquet: Option<PathBuf>) -> Self {
+        let source = csv.as_ref().or(parquet.as_ref());
+        Self {
+            data: RunData {
+                source: source.map_or_else(|| "run".to_owned(), |p| p.display().to_string()),
+                ..RunData::default()
+            },
+            csv,
+            parquet,
+            files: [None, None],
+            actuators: 0,
+            signals: 0,
+        }
+    }
+
+    /// The rows collected so far; once the run has finished, `digest` is that of the first file
+    /// written (CSV, else Parquet).
+    pub fn data(&self) -> &RunData {
+        &self.data
+    }
+
+    /// Writes the files created at the start, each whole or not at all.
+    fn write(&mut self) -> Result<(), DataError> {
+        let [csv, parquet] = std::mem::take(&mut self.files);
+        let mut digest = None;
+        let outputs: [(Option<OutputFile>, ToBytes); 2] =
+            [(csv, csv_file::to_bytes), (parquet, parquet_file::to_bytes)];
+        for (file, to_bytes) in outputs {
+            let Some(file) = file else { continue };
+            let path = file.path().display().to_string();
+            let error = |reason: String| DataError::Write {
+                file: path.clone(),
+                reason,
+            };
+            let bytes = to_bytes(&self.data).map_err(error)?;
+            digest.get_or_insert_with(|| sha256_hex(&bytes));
+            file.commit(&bytes).map_err(|e| error(e.reason))?;
+        }
+        if let Some(digest) = digest {
+            self.data.digest = digest;
+        }
+        Ok(())
+    }
+}
+
+impl Observer for RunTable {
+    fn start(&mut self, layout: &SignalLayout) -> Result<(), ObserverError> {
+        let plant = PlantColumns::of_layout(layout);
+        let column = |role: ColumnRole, (name, unit): &(String, String)| DataColumn {
+            name: PlantColumns::column_name(role, name),
+            unit: unit.clone(),
+            values: Vec::new(),
+        };
+        let commands = (plant.actuators.iter()).map(|a| column(ColumnRole::Command, a));
+        let measured = (plant.signals.iter()).map(|s| column(ColumnRole::Measured, s));
+        let truth = (plant.signals.iter()).map(|s| column(ColumnRole::True, s));
+        self.data.columns = commands.chain(measured).chain(truth).collect();
+        self.data.time.clear();
+        (self.actuators, self.signals) = (plant.actuators.len(), plant.signals.len());
+        let create = |path: &Option<PathBuf>| {
+            path.as_deref()
+                .map(OutputFile::create)
+                .transpose()
+                .map_err(|e| DataError::Write {
+                    file: e.path.display().to_string(),
+                    reason: e.reason,
+                })
+        };
+        self.files = [create(&self.csv)?, create(&self.parquet)?];
+        Ok(())
+    }
+
+    fn observe(&mut self, view: &StepView) -> Result<(), ObserverError> {
+        if !view.control_update {
+            return Ok(());
+        }
+        self.data.time.push(view.time);
+        let (commands, rest) = self.data.columns.split_at_mut(self.actuators);
+        let (measured, truth) = rest.split_at_mut(self.signals);
+        let rows = [
+            (commands, view.commanded),
+            (measured, view.measured),
+            (truth, view.signals),
+        ];
+        for (columns, values) in rows {
+            for (k, column) in columns.iter_mut().enumerate() {
+                column
+                    .values
+                    .push(values.get(k).copied().unwrap_or(f64::NAN));
+            }
+        }
+        Ok(())
+    }
+
+    fn finish(&mut self) -> Result<Findings, ObserverError> {
+        self.write()?;
+        Ok(Findings::default())
+    }
+}
