@@ -3,7 +3,7 @@
 //! report (calibration.json), the calibrated scenario (calibrated.toml) and a recording of the
 //! fits before and after, the cost per iteration and the intervals (calibration.rrd).
 
-use crate::compare::table;
+use crate::compare::{rate_line, table};
 use crate::failure::Failure;
 use crate::fit_figures::{cost_plot, interval_plot, time_plot, AFTER, BEFORE, MEASURED};
 use framework::Registry;
@@ -287,6 +287,7 @@ fn report(result: &Calibration) -> String {
     }
     for run in &result.runs {
         out += &table(&run.source, &run.after, Some(&run.before));
+        out += &format!("  {}\n", rate_line(&run.rate, run.period));
     }
     for run in &result.validation {
         out += &format!(

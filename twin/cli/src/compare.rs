@@ -9,7 +9,7 @@ use framework::Registry;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use twin::calibration::{compare, Comparison, SignalFit};
-use twin::data::{parse_renames, RunData};
+use twin::data::{parse_renames, DataRate, RunData};
 use twin::recordings::write_figures;
 use twin::{OutputFile, Overrides, Scenario};
 
@@ -51,6 +51,7 @@ pub fn run(args: &CompareArgs, registry: &Registry) -> Result<ExitCode, Failure>
         write_outputs(folder, &comparison)?;
     }
     print!("{}", table(&comparison.source, &comparison.signals, None));
+    println!("{}", rate_line(&comparison.rate, comparison.period));
     Ok(ExitCode::SUCCESS)
 }
 
@@ -81,6 +82,18 @@ pub fn table(source: &str, signals: &[SignalFit], before: Option<&[SignalFit]>) 
         );
     }
     out
+}
+
+/// The data's own sampling, and whether it was resampled onto the control period.
+pub fn rate_line(rate: &DataRate, period: f64) -> String {
+    let resampled = match rate.resampled {
+        true => format!("resampled onto the control period, {period} s"),
+        false => "on the control period already".to_string(),
+    };
+    format!(
+        "data sampled every {:.6} s on average ({:.6}–{:.6} s): {resampled}",
+        rate.mean_period, rate.min_period, rate.max_period
+    )
 }
 
 /// comparison.json and comparison.rrd into `folder`, each written whole or not at all.

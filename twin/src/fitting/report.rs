@@ -141,6 +141,7 @@ pub fn calibrate(
     let statistics = Statistics::of(&problem, &solution);
     let estimates = estimates(&problem, &solution.theta, &statistics);
     warnings.extend(bound_warnings(&estimates));
+    warnings.extend(precision_warnings(&estimates));
     let runs = run_fits(&problem, &start, &solution.theta)?;
     let validation = validation_fits(builder, registry, validate, options, &estimates)?;
     let calibrated_toml = calibrated(builder, registry, data, &estimates)?;
@@ -398,6 +399,20 @@ fn bound_warnings(estimates: &[Estimate]) -> Vec<String> {
             format!(
                 "{} ended at its bound {} (bounds [{}, {}]): the data want it beyond; its interval is not meaningful",
                 e.key, e.estimate, e.bounds[0], e.bounds[1]
+            )
+        })
+        .collect()
+}
+
+/// Estimates whose 95 % interval holds zero: the data cannot even tell them from nothing, the
+/// runs being too short or exciting them too little.
+fn precision_warnings(estimates: &[Estimate]) -> Vec<String> {
+    (estimates.iter())
+        .filter(|e| !e.at_bound && e.interval[0] <= 0.0 && e.interval[1] >= 0.0)
+        .map(|e| {
+            format!(
+                "{} is poorly determined: its 95 % interval [{}, {}] holds 0; the runs are too short or excite it too little",
+                e.key, e.interval[0], e.interval[1]
             )
         })
         .collect()
