@@ -169,8 +169,20 @@ fn noise_free_runs_of_every_machine_return_their_hidden_values() {
     let arm = [
         ("urdf.link.forearm.mass", 5.75),
         ("urdf.joint.elbow.damping", 0.45),
+        // The centre of mass along the forearm, 0.16 m in the URDF: one number of the pair.
+        ("urdf.link.forearm.com.0", 0.175),
     ];
-    let result = recovered("arm-milling", 1.0, &arm, &[], StartStates::Automatic);
+    let dir = folder("arm-com");
+    let nominal = Scenario::builtin("arm-milling").unwrap().duration(1.0);
+    let hidden = (nominal.clone().set("urdf.link.forearm.com", [0.0, 0.0]))
+        .map(|b| hide(b, &arm))
+        .unwrap();
+    let data = record(hidden, &dir.join("run.csv"));
+    let options = CalibrationOptions {
+        parameters: fit(&arm.map(|(key, _)| key)),
+        ..CalibrationOptions::default()
+    };
+    let result = run_calibration(&nominal, &[data], &[], &options).unwrap();
     assert_recovered(&result, &arm, 1e-6);
 
     let feed = [
@@ -426,6 +438,12 @@ fn the_check_refuses_what_the_data_cannot_determine() {
         &options(&["urdf.link.ram.mass", "urdf.joint.crank.damping"]),
     );
     assert!(message.contains("samples"), "{message}");
+    let eight = record(whitworth(0.007), &dir.join("eight.csv"));
+    let message = refusal(&whitworth(0.007), &eight, &options(&["urdf.link.ram.mass"]));
+    assert!(
+        message.contains("8 samples at the control period 0.001 s; a fit needs at least 10"),
+        "{message}"
+    );
 
     let mut segments = options(&["urdf.link.ram.mass"]);
     segments.segment = Some(-1.0);

@@ -81,7 +81,7 @@ impl PlantValues {
     }
 
     /// The number a `[plant]` key stands for in `mechanism` (the URDF's, or the value written
-    /// over it): `link.<name>.mass`/`izz`, `joint.<name>.damping`/`friction`/`effort_limit`/
+    /// over it): `link.<name>.mass`/`izz`/`com.0`/`com.1`, `joint.<name>.damping`/`friction`/`effort_limit`/
     /// `stiffness`; `None` for any other key, or where the URDF has no such value.
     pub fn current(mechanism: &Mechanism, key: &[&str]) -> Option<f64> {
         match key {
@@ -93,6 +93,11 @@ impl PlantValues {
                     "izz" => Some(inertial.izz),
                     _ => None,
                 }
+            }
+            ["link", name, "com", index] => {
+                let link = mechanism.links.iter().find(|l| l.name == *name)?;
+                let com = link.inertial.as_ref()?.centre_of_mass;
+                com.get(index.parse::<usize>().ok()?).copied()
             }
             ["joint", name, field] => {
                 let joint = mechanism.joints.iter().find(|j| j.name == *name)?;

@@ -212,6 +212,12 @@ pub fn segments(
                 return Err(CalibrationError::Options(reason));
             }
         };
+        if trace.samples < MIN_SEGMENT_SAMPLES {
+            return Err(CalibrationError::Options(format!(
+                "{}: {} samples at the control period {period} s; a fit needs at least {MIN_SEGMENT_SAMPLES}: give a longer run",
+                trace.source, trace.samples
+            )));
+        }
         let length = length.min(trace.samples);
         if length < MIN_SEGMENT_SAMPLES {
             return Err(CalibrationError::Options(format!(

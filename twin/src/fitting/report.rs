@@ -9,6 +9,7 @@ use super::metrics::{signal_fit, t_quantile_95, SignalFit};
 use super::problem::{self, Problem, Scope, Unknown};
 use super::solve::{solve, Iteration, Linearised, Solution};
 use super::{CalibrationError, CalibrationOptions, FitParameter, StartStates};
+use crate::mechanism::Mechanism;
 use crate::plant::PlantValues;
 use crate::run_data::{DataRate, RunData, Trace};
 use crate::scenario::ScenarioBuilder;
@@ -110,8 +111,10 @@ pub fn calibrate(
             "give at least one run (--data) and one parameter (--fit)".into(),
         ));
     }
+    let mechanism = plant_mechanism(builder, registry)?;
+    let builder = &with_whole_arrays(builder, &mechanism, &options.parameters)?;
     let replayer = problem::replayer(builder, registry, options.closed_loop)?;
-    let parameters = unknowns(builder, registry, data, &options.parameters)?;
+    let parameters = unknowns(builder, &mechanism, data, &options.parameters)?;
     check::bounds(&parameters)?;
     let min_samples = parameters.len() + 2;
     let traces = (data.iter())
@@ -172,14 +175,10 @@ pub fn calibrate(
 /// default), bounds and scales; one per run for a per-run parameter.
 fn unknowns(
     builder: &ScenarioBuilder,
-    registry: &Registry,
+    mechanism: &Mechanism,
     data: &[RunData],
     parameters: &[FitParameter],
 ) -> Result<Vec<Unknown>, CalibrationError> {
-    let loaded = builder.clone().build(registry)?;
-    let mut mechanism = crate::urdf::load_str(&loaded.urdf_text, &loaded.urdf_source)
-        .map_err(|e| CalibrationError::Twin(e.into()))?;
-    (loaded.scenario.plant.apply(&mut mechanism)).map_err(CalibrationError::Options)?;
     let mut unknowns = Vec::new();
     for (index, parameter) in parameters.iter().enumerate() {
         let key = &parameter.key;
@@ -189,7 +188,7 @@ fn unknowns(
         }
         let start = match parameter.start {
             Some(start) => start,
-            None => current_value(builder, &mechanism, key).ok_or_else(|| {
+            None => current_value(builder, mechanism, key).ok_or_else(|| {
                 CalibrationError::Options(format!(
                     "--fit {key}: the scenario holds no number at this key; give a start (--fit {key}=VALUE)"
                 ))
@@ -227,13 +226,48 @@ fn unknowns(
     Ok(unknowns)
 }
 
+/// The scenario's mechanism: its URDF with the scenario's `[plant]` values written over it.
+fn plant_mechanism(
+    builder: &ScenarioBuilder,
+    registry: &Registry,
+) -> Result<Mechanism, CalibrationError> {
+    let loaded = builder.clone().build(registry)?;
+    let mut mechanism = crate::urdf::load_str(&loaded.urdf_text, &loaded.urdf_source)
+        .map_err(|e| CalibrationError::Twin(e.into()))?;
+    (loaded.scenario.plant.apply(&mut mechanism)).map_err(CalibrationError::Options)?;
+    Ok(mechanism)
+}
+
+/// The scenario with a link's whole centre of mass written (the URDF's) wherever a parameter
+/// is one of its two numbers (`urdf.link.<link>.com.0`) and the scenario gives none, so that
+/// the number can be set alone.
+fn with_whole_arrays(
+    builder: &ScenarioBuilder,
+    mechanism: &Mechanism,
+    parameters: &[FitParameter],
+) -> Result<ScenarioBuilder, CalibrationError> {
+    let mut builder = builder.clone();
+    for parameter in parameters {
+        let parts: Vec<&str> = parameter.key.split('.').collect();
+        let ["urdf" | "plant", "link", link, "com", _] = parts.as_slice() else {
+            continue;
+        };
+        let whole = format!("urdf.link.{link}.com");
+        if builder.number(&format!("{whole}.0")).is_some() {
+            continue;
+        }
+        let com =
+            [0, 1].map(|i| PlantValues::current(mechanism, &["link", link, "com", &i.to_string()]));
+        if let [Some(x), Some(y)] = com {
+            builder = builder.set(&whole, [x, y])?;
+        }
+    }
+    Ok(builder)
+}
+
 /// The value a key has now: in the scenario's TOML, else the URDF's (`urdf.…`), else a sensor's
 /// or a start state's default.
-fn current_value(
-    builder: &ScenarioBuilder,
-    mechanism: &crate::mechanism::Mechanism,
-    key: &str,
-) -> Option<f64> {
+fn current_value(builder: &ScenarioBuilder, mechanism: &Mechanism, key: &str) -> Option<f64> {
     if let Some(value) = builder.number(key) {
         return Some(value);
     }

@@ -316,8 +316,13 @@ impl ScenarioBuilder {
         }
         let (last, parents) = path.split_last()?;
         let mut table = &self.table;
-        for part in parents {
-            table = table.get(part.as_str())?.as_table()?;
+        for (k, part) in parents.iter().enumerate() {
+            match table.get(part.as_str())? {
+                toml::Value::Array(items) if k + 1 == parents.len() => {
+                    return items.get(last.parse::<usize>().ok()?)?.as_float();
+                }
+                value => table = value.as_table()?,
+            }
         }
         match table.get(last.as_str())? {
             toml::Value::Float(value) => Some(*value),
@@ -343,6 +348,12 @@ impl ScenarioBuilder {
                 .entry(part.as_str())
                 .or_insert_with(|| toml::Value::Table(toml::Table::new()));
             let entry = match entry {
+                // A number in an array of numbers: `plant.link.forearm.com.0`.
+                toml::Value::Array(items) if parts.len() == 0 => {
+                    array_element(items, part, last, value)?;
+                    self.changed = true;
+                    return Ok(());
+                }
                 toml::Value::Array(items) => array_entry(items, part, parts.next())?,
                 other => other,
             };
@@ -354,6 +365,25 @@ impl ScenarioBuilder {
         self.changed = true;
         Ok(())
     }
+}
+
+/// Sets the element `index` of the array `name` of values (not tables) to `value`.
+fn array_element(
+    items: &mut [toml::Value],
+    name: &str,
+    index: &str,
+    value: toml::Value,
+) -> Result<(), String> {
+    let count = items.len();
+    let index = (index.parse::<usize>())
+        .map_err(|_| format!("`{name}` is an array: give an entry's index (`{name}.0`)"))?;
+    let item = (items.get_mut(index))
+        .ok_or_else(|| format!("`{name}` has {count} entries; there is no `{name}.{index}`"))?;
+    if item.is_table() {
+        return Err(format!("`{name}.{index}` is a table: give a key inside it"));
+    }
+    *item = value;
+    Ok(())
 }
 
 /// The entry of the array `name` that the key's next segment, an index, picks.
