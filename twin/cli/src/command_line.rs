@@ -14,6 +14,7 @@ use crate::reference;
 use crate::reproduce;
 use crate::run;
 use crate::salvage;
+use crate::serve;
 use crate::sweep;
 use clap::{CommandFactory, Parser, Subcommand};
 use std::process::ExitCode;
@@ -69,6 +70,10 @@ pub enum Command {
     /// --no-controller the plant alone (inputs the actuators' efforts); outputs the measured and
     /// true signals, parameters the scenario's numbers.
     Fmu(fmu::FmuArgs),
+    /// Serve a scenario's run as a virtual machine over OPC UA: the client writes the
+    /// actuators' commands and reads the measured signals, paced to the wall clock (--rate) or
+    /// advanced in lockstep (--lockstep).
+    Serve(serve::ServeArgs),
 }
 
 /// Runs the command `cli` names, with the built-in controllers: the exit code it ends with, or
@@ -81,6 +86,7 @@ pub fn dispatch(cli: Cli) -> Result<ExitCode, Failure> {
             Ok(ExitCode::SUCCESS)
         }
         Command::Run(args) => run::run(args, &registry),
+        Command::Serve(args) => serve::serve(args, &registry),
         Command::Bench(args) => bench::run(args, &registry),
         Command::Reproduce(args) => printed(reproduce::run(args, &registry)),
         Command::Salvage(args) => salvage::run(args),

@@ -20,6 +20,7 @@ mod reference;
 pub mod reproduce;
 pub mod run;
 pub mod salvage;
+pub mod serve;
 mod signals;
 pub mod study;
 pub mod sweep;

@@ -1,0 +1,106 @@
+//! The `--opcua` URL: `opc.tcp://HOST[:PORT]`, checked to be a loopback address.
+
+use super::error::ServeError;
+use std::net::{IpAddr, Ipv4Addr, SocketAddr};
+
+/// OPC UA's registered port, used when the URL gives none.
+const DEFAULT_PORT: u16 = 4840;
+
+/// Where the server listens and the URL it advertises.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Endpoint {
+    /// The socket address bound.
+    pub addr: SocketAddr,
+    /// The host as the URL names it (advertised in the endpoint descriptions).
+    pub host: String,
+    /// The URL as given, for the endpoints and the messages.
+    pub url: String,
+}
+
+/// Parses `opc.tcp://HOST[:PORT][/]`: HOST an IP literal (IPv6 in brackets) or `localhost`;
+/// refuses any address that is not loopback.
+pub fn parse(url: &str) -> Result<Endpoint, ServeError> {
+    let bad = |reason: &str| ServeError::Endpoint {
+        url: url.to_string(),
+        reason: reason.to_string(),
+    };
+    let rest = url
+        .strip_prefix("opc.tcp://")
+        .ok_or_else(|| bad("must start with opc.tcp://"))?;
+    let authority = rest.strip_suffix('/').unwrap_or(rest);
+    if authority.contains('/') {
+        return Err(bad("a path after the port is not supported"));
+    }
+    let (host, port) = split_port(authority).map_err(|reason| bad(&reason))?;
+    let ip = if host.eq_ignore_ascii_case("localhost") {
+        IpAddr::V4(Ipv4Addr::LOCALHOST)
+    } else {
+        host.parse::<IpAddr>()
+            .map_err(|_| bad("the host must be an IP address or localhost"))?
+    };
+    if !ip.is_loopback() {
+        return Err(ServeError::NotLoopback {
+            url: url.to_string(),
+            host: host.to_string(),
+        });
+    }
+    Ok(Endpoint {
+        addr: SocketAddr::new(ip, port),
+        host: host.to_string(),
+        url: url.to_string(),
+    })
+}
+
+/// `HOST[:PORT]` or `[V6][:PORT]` into the host (without brackets) and the port.
+fn split_port(authority: &str) -> Result<(&str, u16), String> {
+    let (host, port) = if let Some(bracketed) = authority.strip_prefix('[') {
+        let (host, after) = bracketed
+            .split_once(']')
+            .ok_or("an IPv6 host needs its closing ]")?;
+        (host, after.strip_prefix(':'))
+    } else {
+        match authority.rsplit_once(':') {
+            Some((host, port)) => (host, Some(port)),
+            None => (authority, None),
+        }
+    };
+    if host.is_empty() {
+        return Err("no host".into());
+    }
+    let port = match port {
+        None => DEFAULT_PORT,
+        Some(port) => port
+            .parse::<u16>()
+            .map_err(|_| format!("port `{port}` is not a number from 0 to 65535"))?,
+    };
+    Ok((host, port))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn loopback_hosts_parse_with_their_ports() {
+        let endpoint = parse("opc.tcp://127.0.0.1:4841").unwrap();
+        assert_eq!(endpoint.addr, "127.0.0.1:4841".parse().unwrap());
+        assert_eq!(parse("opc.tcp://localhost/").unwrap().addr.port(), 4840);
+        assert_eq!(parse("opc.tcp://[::1]:5000").unwrap().addr.port(), 5000);
+    }
+
+    #[test]
+    fn other_hosts_and_malformed_urls_are_refused() {
+        for url in [
+            "opc.tcp://0.0.0.0:4840",
+            "opc.tcp://10.1.2.3:4840",
+            "http://127.0.0.1:4840",
+            "opc.tcp://127.0.0.1:99999",
+            "opc.tcp://:4840",
+            "opc.tcp://[::1:4840",
+            "opc.tcp://127.0.0.1:4840/twin",
+            "opc.tcp://machine.example:4840",
+        ] {
+            assert!(parse(url).is_err(), "{url}");
+        }
+    }
+}

@@ -1,0 +1,160 @@
+//! The observer of a served run: starts the server on the run's names, publishes the measured
+//! signals and the status at each control update, and paces the run (wall clock or lockstep).
+
+use super::pacing::Pacing;
+use super::server::{OpcUaServer, Published};
+use super::shared::Shared;
+use opcua::types::{DataValue, Variant};
+use std::sync::Arc;
+use twin::{Findings, Observer, ObserverError, RunSummary, SignalLayout, StepView, StopFlag};
+
+/// How the run keeps time with the world.
+#[derive(Debug)]
+pub enum Pace {
+    /// Simulated time at `rate` × the wall clock.
+    WallClock(Pacing),
+    /// One control period per period the client grants with `Advance`.
+    Lockstep,
+}
+
+/// Publishes a run to its OPC UA server.
+pub struct Publisher {
+    server: OpcUaServer,
+    machine: String,
+    shared: Arc<Shared>,
+    pace: Pace,
+    stop: StopFlag,
+    published: Option<Published>,
+    /// Control updates reached so far.
+    updates: u64,
+}
+
+impl Publisher {
+    /// A publisher serving `machine` on `server`.
+    pub fn new(
+        server: OpcUaServer,
+        machine: &str,
+        shared: Arc<Shared>,
+        pace: Pace,
+        stop: StopFlag,
+    ) -> Self {
+        Self {
+            server,
+            machine: machine.to_string(),
+            shared,
+            pace,
+            stop,
+            published: None,
+            updates: 0,
+        }
+    }
+
+    /// The deadline misses so far (none in lockstep).
+    pub fn deadline_misses(&self) -> u64 {
+        match &self.pace {
+            Pace::WallClock(pacing) => pacing.misses,
+            Pace::Lockstep => 0,
+        }
+    }
+
+    /// Publishes how the run ended and hands back the server, to be stopped.
+    pub fn ended(self, summary: &RunSummary) -> OpcUaServer {
+        let state = match (&summary.failure, &summary.interrupted) {
+            (Some(_), _) => "diverged",
+            (None, Some(_)) => "interrupted",
+            (None, None) => "finished",
+        };
+        if let Some(published) = &self.published {
+            let id = &published.nodes.status[3];
+            let value = DataValue::new_now(Variant::from(state));
+            // The run is over either way; a client that misses the last state sees the run end.
+            let _ = published
+                .manager
+                .set_value(&published.subscriptions, id, None, value);
+        }
+        self.server
+    }
+
+    fn publish(&self, view: &StepView) -> Result<(), ObserverError> {
+        let Some(published) = &self.published else {
+            return Ok(());
+        };
+        let status = [
+            Variant::Double(view.time),
+            Variant::UInt64(view.step as u64),
+            Variant::UInt64(self.updates),
+            Variant::from("running"),
+            Variant::UInt64(self.deadline_misses()),
+        ];
+        let signals = published
+            .nodes
+            .signals
+            .iter()
+            .zip(view.measured.iter().map(|v| Variant::Double(*v)));
+        let values = signals
+            .chain(published.nodes.status.iter().zip(status))
+            .map(|(id, value)| (id, None, DataValue::new_now(value)));
+        published
+            .manager
+            .set_values(&published.subscriptions, values)
+            .map_err(|status| format!("cannot publish the run's values: {status}").into())
+    }
+}
+
+/// Deadline misses logged as events, at most; later ones are only counted.
+const LOGGED_MISSES: u64 = 20;
+
+/// Asks for miss number `misses` to be logged (the first [`LOGGED_MISSES`], then one line saying
+/// the rest are only counted).
+fn log_miss(shared: &Shared, misses: u64, time: f64, late: f64) {
+    if misses <= LOGGED_MISSES {
+        shared.note(format!(
+            "deadline miss: the control update at t = {time:.6} s came {:.3} ms late",
+            late * 1e3
+        ));
+    } else if misses == LOGGED_MISSES + 1 {
+        shared.note(format!(
+            "deadline misses: more than {LOGGED_MISSES}; the rest are counted, not logged"
+        ));
+    }
+}
+
+impl Observer for Publisher {
+    fn start(&mut self, layout: &SignalLayout) -> Result<(), ObserverError> {
+        self.published = Some(self.server.start(&self.machine, layout, &self.shared)?);
+        Ok(())
+    }
+
+    fn observe(&mut self, view: &StepView) -> Result<(), ObserverError> {
+        if view.control_update {
+            if let Pace::WallClock(pacing) = &mut self.pace {
+                if let Some(late) = pacing.wait_until(view.time) {
+                    log_miss(&self.shared, pacing.misses, view.time, late);
+                }
+            }
+            self.publish(view)?;
+            self.shared.reached(self.updates);
+            if matches!(self.pace, Pace::Lockstep) && !view.last {
+                self.shared.take_grant(&self.stop);
+            }
+            self.updates += 1;
+        }
+        if view.last {
+            self.shared.end();
+        }
+        Ok(())
+    }
+
+    fn finish(&mut self) -> Result<Findings, ObserverError> {
+        self.shared.end();
+        let mut metrics = Vec::new();
+        if let Pace::WallClock(pacing) = &self.pace {
+            metrics.push(("serve.deadline_misses".into(), pacing.misses as f64));
+            metrics.push(("serve.worst_lateness_s".into(), pacing.worst_lateness));
+        }
+        Ok(Findings {
+            metrics,
+            warnings: Vec::new(),
+        })
+    }
+}

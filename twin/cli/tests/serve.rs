@@ -1,0 +1,246 @@
+//! `twin serve` against an OPC UA stack the twin did not write (Python asyncua, from
+//! `scripts/test-tools`): lockstep commands and reads checked against the twin's own open-loop
+//! response, read-only signals, the recording after the server ends; and wall-clock pacing.
+
+mod common;
+
+use common::{finished, scratch};
+use std::net::TcpListener;
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
+use twin::{Scenario, Simulator};
+
+const TORQUE: f64 = 20.0;
+const PERIODS: usize = 100;
+const DURATION: f64 = 0.3;
+
+/// The tools' Python, or a failure saying how to get it.
+fn tools_python() -> PathBuf {
+    std::env::var_os("TWIN_TOOLS_PYTHON")
+        .map(PathBuf::from)
+        .expect("TWIN_TOOLS_PYTHON is unset: run eval \"$(scripts/test-tools)\" first")
+}
+
+/// A port nobody listens on now.
+fn free_port() -> u16 {
+    let listener = TcpListener::bind("127.0.0.1:0").unwrap();
+    listener.local_addr().unwrap().port()
+}
+
+/// The server's output once it has ended; killed (and the test failed by its output) if it
+/// outlives the client by more than a few seconds.
+fn ended(mut server: Child) -> std::process::Output {
+    let start = Instant::now();
+    while server.try_wait().unwrap().is_none() && start.elapsed() < Duration::from_secs(10) {
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    server.kill().ok();
+    server.wait_with_output().unwrap()
+}
+
+fn serve(args: &[&str], dir: &Path) -> Child {
+    Command::new(env!("CARGO_BIN_EXE_twin"))
+        .arg("serve")
+        .args(args)
+        .current_dir(dir)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("twin serve starts")
+}
+
+/// The crank angle after one period at zero (the command written while the run waits at a
+/// control update takes effect at the next) and PERIODS − 1 at TORQUE, by the twin's step API.
+fn open_loop_position() -> f64 {
+    let loaded = Scenario::builtin("whitworth-crank-pi")
+        .unwrap()
+        .duration(DURATION)
+        .build(&controllers::builtin())
+        .unwrap();
+    let mut simulator = Simulator::new(loaded).unwrap();
+    let index = simulator
+        .signal_specs()
+        .iter()
+        .position(|s| s.name == "crank.position")
+        .unwrap();
+    let mut measured = simulator.step(&[0.0]).unwrap().to_vec();
+    for _ in 1..PERIODS {
+        measured = simulator.step(&[TORQUE]).unwrap().to_vec();
+    }
+    measured[index]
+}
+
+#[test]
+fn a_python_client_drives_the_crank_in_lockstep() {
+    let dir = scratch("serve", "lockstep");
+    let url = format!("opc.tcp://127.0.0.1:{}", free_port());
+    let duration = DURATION.to_string();
+    let args = [
+        "whitworth-crank-pi",
+        "--lockstep",
+        "--opcua",
+        &url,
+        "--duration",
+        &duration,
+        "--out",
+        "run.rrd",
+        "--summary",
+        "summary.json",
+    ];
+    let server = serve(&args, &dir);
+    let client = finished(
+        Command::new(tools_python())
+            .arg(Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/serve/client.py"))
+            .args([
+                &url,
+                "whitworth",
+                "crank",
+                &TORQUE.to_string(),
+                &PERIODS.to_string(),
+            ]),
+    );
+    let served = ended(server);
+    let stderr = String::from_utf8_lossy(&served.stderr);
+    assert!(
+        client.status.success(),
+        "client: {}\nserver: {stderr}",
+        String::from_utf8_lossy(&client.stderr)
+    );
+    assert!(served.status.success(), "server: {stderr}");
+    let seen: serde_json::Value = serde_json::from_slice(&client.stdout).unwrap();
+    let names = |key: &str| {
+        seen[key]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|v| v.as_str().unwrap().to_string())
+            .collect::<Vec<_>>()
+    };
+    for part in ["Advance", "Axes", "Commands", "Signals", "Status"] {
+        assert!(names("machine").contains(&part.to_string()), "{seen}");
+    }
+    assert_eq!(
+        names("axis"),
+        ["crank.position", "crank.velocity", "effort.crank"]
+    );
+    assert!(
+        names("signals").contains(&"ram_position".to_string()),
+        "{seen}"
+    );
+    assert_eq!(seen["period_before"], 0);
+    assert_eq!(seen["effort_read_back"], TORQUE);
+    assert_eq!(seen["advanced_to"], PERIODS as u64);
+    assert_eq!(seen["period_after"], PERIODS as u64);
+    let (before, after) = (
+        seen["position_before"].as_f64().unwrap(),
+        seen["position_after"].as_f64().unwrap(),
+    );
+    // A positive torque turns the crank counter-clockwise: about ½·τ/J·t² with J ≈ 1.5 kg·m².
+    assert!(after - before > 0.02 && after - before < 0.5, "{seen}");
+    let expected = open_loop_position();
+    assert!(
+        (after - expected).abs() < 1e-9,
+        "served {after}, open loop {expected}"
+    );
+    let refused = seen["position_write"].as_str().unwrap();
+    assert!(
+        matches!(refused, "BadNotWritable" | "BadUserAccessDenied"),
+        "{seen}"
+    );
+    assert_eq!(seen["nan_write"], "BadOutOfRange");
+    assert_eq!(seen["state"], "finished");
+    let summary: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.join("summary.json")).unwrap()).unwrap();
+    assert_eq!(summary["steps"], 300, "{summary}");
+    assert_eq!(summary["controller"], "opcua-client");
+    let contents = twin::recordings::inspect(&dir.join("run.rrd")).unwrap();
+    assert!(
+        contents.events.iter().any(|e| e.contains("run ended: ok")),
+        "{:?}",
+        contents.events
+    );
+    common::verify(&dir.join("run.rrd"));
+    assert!(common::parts(&dir).is_empty());
+}
+
+#[test]
+fn wall_clock_pacing_runs_at_the_rate_and_counts_misses() {
+    let dir = scratch("serve", "rate");
+    let url = format!("opc.tcp://127.0.0.1:{}", free_port());
+    let started = Instant::now();
+    let output = finished(
+        Command::new(env!("CARGO_BIN_EXE_twin"))
+            .args([
+                "serve",
+                "whitworth-crank-pi",
+                "--rate",
+                "10",
+                "--duration",
+                "10",
+            ])
+            .args([
+                "--opcua",
+                &url,
+                "--out",
+                "run.rrd",
+                "--summary",
+                "summary.json",
+            ])
+            .current_dir(&dir),
+    );
+    let wall = started.elapsed();
+    let stdout = String::from_utf8_lossy(&output.stdout);
+    assert!(
+        output.status.success(),
+        "{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    // 10 s at 10 × real time is 1 s of wall clock, plus starting and the server's linger.
+    assert!(
+        wall >= Duration::from_millis(1000) && wall < Duration::from_secs(8),
+        "{wall:?}"
+    );
+    assert!(stdout.contains("deadline misses: "), "{stdout}");
+    let summary = std::fs::read_to_string(dir.join("summary.json")).unwrap();
+    let summary: serde_json::Value = serde_json::from_str(&summary).unwrap();
+    let misses = summary["metrics"]["serve.deadline_misses"].as_f64();
+    assert!(misses.is_some(), "{summary}");
+    assert!(
+        stdout.contains(&format!("deadline misses: {}", misses.unwrap())),
+        "{stdout}"
+    );
+    // Misses depend on the machine's load; each one logged is a warning in the recording.
+    let events = twin::recordings::inspect(&dir.join("run.rrd"))
+        .unwrap()
+        .events;
+    let logged = events
+        .iter()
+        .filter(|e| e.contains("deadline miss"))
+        .count() as f64;
+    let misses = misses.unwrap();
+    // The last update's miss, if any, has no later update to be logged at.
+    assert!(
+        logged <= misses && (misses <= 1.0 || logged > 0.0),
+        "{misses}: {events:?}"
+    );
+}
+
+#[test]
+fn a_host_beyond_loopback_is_refused() {
+    let dir = scratch("serve", "loopback");
+    let output = finished(
+        Command::new(env!("CARGO_BIN_EXE_twin"))
+            .args([
+                "serve",
+                "whitworth-crank-pi",
+                "--opcua",
+                "opc.tcp://0.0.0.0:4840",
+            ])
+            .current_dir(&dir),
+    );
+    assert_eq!(output.status.code(), Some(2));
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert_eq!(stderr.lines().count(), 1, "{stderr}");
+    assert!(stderr.contains("not a loopback address"), "{stderr}");
+}
