@@ -48,7 +48,7 @@ pub use sensors::Noise;
 
 /// Signal processing the twin's own spectra use, for applications that analyse signals alike.
 pub mod signal {
-    pub use crate::spectrum::fft;
+    pub use crate::spectrum::{fft, Spectrum};
 }
 
 /// Measured runs in and out: a run's table of commands, measured and true signals as CSV,

@@ -10,7 +10,9 @@ use std::f64::consts::TAU;
 /// An amplitude spectrum: bin k at `k·bin_width` Hz.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Spectrum {
+    /// The bins' spacing, Hz.
     pub bin_width: f64,
+    /// The amplitude in each bin, in the signal's unit, from 0 Hz to the Nyquist frequency.
     pub amplitudes: Vec<f64>,
 }
 

@@ -197,13 +197,7 @@ fn options(
         },
         noise,
         segment: args.segment.or(spec.segment),
-        states: match states {
-            "auto" => StartStates::Automatic,
-            "none" => StartStates::Fixed,
-            joints => {
-                StartStates::Joints(joints.split(',').map(|j| j.trim().to_string()).collect())
-            }
-        },
+        states: StartStates::parse(states),
         closed_loop: args.closed_loop || spec.closed_loop,
         starts: args.starts.or(spec.starts).unwrap_or(1),
         max_iterations: args.max_iterations,

@@ -3,6 +3,7 @@
 //! their intervals, as 2D plots for [`twin::recordings::write_figures`].
 
 use twin::recordings::{Plot2D, PlotAxis, PlotGeometry, PlotLayer};
+use twin::signal::Spectrum;
 
 /// Measured data, drawn first.
 pub const MEASURED: [u8; 3] = [200, 200, 200];
@@ -103,22 +104,18 @@ pub fn residual_spectra(period: f64, residuals: &[(&str, Vec<f64>)]) -> Plot2D {
     }
 }
 
-/// |FFT| of the mean-removed residual (zero-padded to a power of two), relative to its RMS, dB.
+/// The residual's amplitude spectrum (the twin's own, Hann-windowed) relative to its RMS, dB.
 fn spectrum_db(residual: &[f64], period: f64) -> Vec<[f64; 2]> {
-    let n = residual.len().next_power_of_two().max(2);
-    let mean = residual.iter().sum::<f64>() / residual.len().max(1) as f64;
-    let mut re: Vec<f64> = residual.iter().map(|r| r - mean).collect();
-    re.resize(n, 0.0);
-    let rms = (re.iter().map(|r| r * r).sum::<f64>() / residual.len().max(1) as f64).sqrt();
-    let mut im = vec![0.0; n];
-    twin::signal::fft(&mut re, &mut im);
-    let scale = 2.0 / (residual.len().max(1) as f64) / rms.max(f64::MIN_POSITIVE);
-    (1..n / 2)
-        .map(|k| {
-            let amplitude = (re[k] * re[k] + im[k] * im[k]).sqrt() * scale;
+    let n = residual.len().max(1) as f64;
+    let mean = residual.iter().sum::<f64>() / n;
+    let rms = (residual.iter().map(|r| (r - mean).powi(2)).sum::<f64>() / n).sqrt();
+    let spectrum = Spectrum::of(residual, period);
+    (spectrum.amplitudes.iter().enumerate().skip(1))
+        .map(|(k, a)| {
+            let relative = a / rms.max(f64::MIN_POSITIVE);
             [
-                k as f64 / (n as f64 * period),
-                20.0 * amplitude.max(1e-12).log10(),
+                k as f64 * spectrum.bin_width,
+                20.0 * relative.max(1e-12).log10(),
             ]
         })
         .collect()

@@ -9,7 +9,9 @@ use framework::Registry;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use twin::data::RunTable;
-use twin::{same_file, summary, Engine, LiveViewer, OutputFile, Overrides, Scenario, Twin};
+use twin::{
+    same_file, summary, Engine, LiveViewer, OutputFile, Overrides, RunSummary, Scenario, Twin,
+};
 
 /// `twin run` arguments.
 #[derive(Debug, Clone, clap::Args)]
@@ -92,11 +94,17 @@ pub fn run(args: &RunArgs, registry: &Registry) -> Result<ExitCode, Failure> {
     for data in [&args.csv, &args.parquet].into_iter().flatten() {
         println!("data: {}", data.display());
     }
+    finish(&result, summary_file)
+}
+
+/// The end of a run as `twin run` and `twin serve` report it: its warnings on stderr, the
+/// summary JSON (when asked), and the exit code of a diverged or interrupted run.
+pub fn finish(result: &RunSummary, summary_file: Option<OutputFile>) -> Result<ExitCode, Failure> {
     for warning in &result.warnings {
         eprintln!("warning: {warning}");
     }
     if let Some(file) = summary_file {
-        summary::write_json(&result, file)?;
+        summary::write_json(result, file)?;
     }
     Ok(match (&result.failure, &result.interrupted) {
         (Some(failure), _) => {

@@ -132,7 +132,7 @@ impl Request {
         }
         let mut map: Vec<String> = spec.map.iter().map(|(a, b)| format!("{a}={b}")).collect();
         map.extend(self.map);
-        let table_states = || parse_states(spec.states.as_deref().unwrap_or("auto"));
+        let table_states = || StartStates::parse(spec.states.as_deref().unwrap_or("auto"));
         let folder = folder.unwrap_or(Path::new(""));
         let runs = |given: Vec<PathBuf>, table: &[String]| match given.is_empty() {
             true => table.iter().map(|p| folder.join(p)).collect(),
@@ -368,16 +368,7 @@ fn noise_levels(value: Option<&Bound<'_, PyAny>>) -> PyResult<Vec<(String, f64)>
 /// `states`: `"auto"`, `"none"`, joints separated by commas, or a list of joints.
 fn start_states(value: &Bound<'_, PyAny>) -> PyResult<StartStates> {
     if let Ok(text) = value.cast::<PyString>() {
-        return Ok(parse_states(&text.to_string()));
+        return Ok(StartStates::parse(&text.to_string()));
     }
     Ok(StartStates::Joints(strings("states", Some(value))?))
-}
-
-/// As `twin calibrate --states` reads its value.
-fn parse_states(text: &str) -> StartStates {
-    match text {
-        "auto" => StartStates::Automatic,
-        "none" => StartStates::Fixed,
-        joints => StartStates::Joints(joints.split(',').map(|j| j.trim().to_string()).collect()),
-    }
 }

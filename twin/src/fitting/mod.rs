@@ -105,6 +105,18 @@ pub enum StartStates {
     Joints(Vec<String>),
 }
 
+impl StartStates {
+    /// As `--states` and `[calibration] states` spell it: `auto`, `none`, or joints separated
+    /// by commas.
+    pub fn parse(text: &str) -> Self {
+        match text {
+            "auto" => Self::Automatic,
+            "none" => Self::Fixed,
+            joints => Self::Joints(joints.split(',').map(|j| j.trim().to_string()).collect()),
+        }
+    }
+}
+
 /// How a calibration runs.
 #[derive(Debug, Clone, PartialEq)]
 pub struct CalibrationOptions {

@@ -112,3 +112,47 @@ fn hint(si: &str) -> String {
         [rest @ .., last] => format!("give {} or {last}", rest.join(", ")),
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use framework::Unit;
+
+    /// A file written in any unit the twin itself displays reads back to SI: the table agrees
+    /// with the display units' own scales.
+    #[test]
+    fn every_display_unit_reads_back_to_si() {
+        use Unit::*;
+        let all = [
+            Metre,
+            Millimetre,
+            Micrometre,
+            MetrePerSecond,
+            MillimetrePerSecond,
+            MicrometrePerSecond,
+            MetrePerSecondSquared,
+            MillimetrePerRev,
+            Radian,
+            Degree,
+            DegreeWrapped,
+            RadianPerSecond,
+            RadianPerSecondSquared,
+            Rpm,
+            Newton,
+            NewtonMetre,
+            Watt,
+            Kilowatt,
+            Joule,
+            NewtonSecond,
+            Ampere,
+            Second,
+            Millisecond,
+            Dimensionless,
+        ];
+        for unit in all {
+            let shown = unit.from_si(1.0);
+            let back = factor(unit.label(), "x", unit.si_label()).unwrap_or(f64::NAN) * shown;
+            assert!((back - 1.0).abs() < 1e-12, "{unit:?}: {}", unit.label());
+        }
+    }
+}

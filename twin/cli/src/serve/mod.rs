@@ -13,7 +13,7 @@ mod shared;
 
 pub use error::ServeError;
 
-use crate::failure::{Failure, EXIT_DIVERGED};
+use crate::failure::Failure;
 use crate::signals::stop_on_signals;
 use controller::ClientCommands;
 use framework::Registry;
@@ -120,21 +120,5 @@ pub fn serve(args: &ServeArgs, registry: &Registry) -> Result<ExitCode, Failure>
     if !args.lockstep {
         println!("deadline misses: {misses}");
     }
-    for warning in &result.warnings {
-        eprintln!("warning: {warning}");
-    }
-    if let Some(file) = summary_file {
-        summary::write_json(&result, file)?;
-    }
-    Ok(match (&result.failure, &result.interrupted) {
-        (Some(failure), _) => {
-            eprintln!("error: {failure}");
-            ExitCode::from(EXIT_DIVERGED)
-        }
-        (None, Some(interrupted)) => {
-            eprintln!("{interrupted}: recording and summary are complete up to there");
-            ExitCode::from(128 + interrupted.signal.min(127) as u8)
-        }
-        (None, None) => ExitCode::SUCCESS,
-    })
+    crate::run::finish(&result, summary_file)
 }
