@@ -15,6 +15,7 @@
 //! | `link_mass` | `link` | new mass, kg (izz scaled with it), reached over `ramp` s |
 //! | `joint_damping` | `joint` | new viscous damping, reached over `ramp` s |
 //! | `joint_friction` | `joint` | new dry friction, reached over `ramp` s |
+//! | `collision` | `joint` | effort from outside on the joint (an obstacle hit), N·m or N |
 //! | `tool_breakage` | — | — (the process forces vanish) |
 //! | `hard_spot` | — | factor k on the process forces |
 //!
@@ -66,6 +67,7 @@ pub enum FaultKind {
     LinkMass,
     JointDamping,
     JointFriction,
+    Collision,
     ToolBreakage,
     HardSpot,
 }
@@ -103,7 +105,7 @@ impl FaultKind {
             }
             ActuatorEffectiveness | ActuatorStuck | ActuatorLimit => Subject::Actuator,
             LinkMass => Subject::Link,
-            JointDamping | JointFriction => Subject::Joint,
+            JointDamping | JointFriction | Collision => Subject::Joint,
             ToolBreakage | HardSpot => Subject::Process,
         }
     }
@@ -114,7 +116,7 @@ impl FaultKind {
         match self {
             SensorStuck | ActuatorStuck => ValueRule::Optional,
             SensorDropout | ToolBreakage => ValueRule::Absent,
-            SensorBias | SensorDrift => at_least(f64::NEG_INFINITY, true),
+            SensorBias | SensorDrift | Collision => at_least(f64::NEG_INFINITY, true),
             SensorNoise | SensorDelay | ActuatorLimit | LinkMass => at_least(0.0, false),
             ActuatorEffectiveness | JointDamping | JointFriction | HardSpot => at_least(0.0, true),
         }
@@ -413,6 +415,17 @@ impl FaultSet {
         })
     }
 
+    /// Adds the efforts of the collisions going on to the joints' efforts.
+    pub fn collisions(&self, joint_efforts: &mut [f64]) {
+        for fault in self.faults.iter().filter(|f| f.active) {
+            if let (FaultKind::Collision, Target::Joint { joint, .. }) =
+                (fault.spec.kind, &fault.target)
+            {
+                joint_efforts[*joint] += fault.spec.value.unwrap_or(0.0);
+            }
+        }
+    }
+
     /// The plant changes due at `time` (a ramp moves a value every step until it arrives).
     pub fn plant(&mut self, time: f64, changes: &mut Vec<PlantChange>) {
         changes.clear();
@@ -424,7 +437,8 @@ impl FaultSet {
                     damping, friction, ..
                 } => match fault.spec.kind {
                     FaultKind::JointDamping => damping,
-                    _ => friction,
+                    FaultKind::JointFriction => friction,
+                    _ => continue,
                 },
                 _ => continue,
             };

@@ -26,6 +26,7 @@ mod run_data;
 mod scenario;
 mod scene;
 mod sensors;
+mod shadow;
 mod spectrum;
 mod urdf;
 
@@ -37,7 +38,8 @@ pub use physics::{
 pub use recording::{LiveViewer, RecordingError};
 pub use run::{
     Divergence, FailureKind, Findings, Interruption, LinearizeError, Observer, ObserverError,
-    RunSummary, SignalLayout, Simulator, StepError, StepView, StopFlag, Twin, TwinError,
+    RunSummary, SetpointSource, SignalLayout, Simulator, StepError, StepView, StopFlag, Twin,
+    TwinError,
 };
 pub use scenario::{
     load as load_scenario, CalibrationSpec, FitSpec, LoadedScenario, MetricKind, MetricSpec,
@@ -72,6 +74,18 @@ pub mod calibration {
         calibrate, compare, Calibration, CalibrationError, CalibrationOptions, Comparison,
         Estimate, FitParameter, Iteration, Overlay, RunFit, SignalFit, StartStates, Whiteness,
         DEFAULT_SEGMENT,
+    };
+}
+
+/// The twin beside a running machine: a [`Shadow`](shadowing::Shadow) fed the machine's
+/// commands and measurements as they arrive estimates its state and tracked parameters with an
+/// extended Kalman filter on the twin's own model, tests the innovations and raises
+/// [`Anomaly`](shadowing::Anomaly) events, named after the parameter that explains them.
+pub mod shadowing {
+    pub use crate::shadow::{
+        describe, Anomaly, AnomalyChange, Attribution, DetectorView, Innovation, IntakeCounts,
+        Shadow, ShadowError, ShadowOptions, ShadowRecording, ShadowStep, TrackedParameter,
+        DEFAULT_PROCESS_NOISE, MAX_GAP,
     };
 }
 

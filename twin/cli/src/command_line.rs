@@ -15,6 +15,7 @@ use crate::reproduce;
 use crate::run;
 use crate::salvage;
 use crate::serve;
+use crate::shadow;
 use crate::sweep;
 use clap::{CommandFactory, Parser, Subcommand};
 use std::process::ExitCode;
@@ -74,6 +75,10 @@ pub enum Command {
     /// actuators' commands and reads the measured signals, paced to the wall clock (--rate) or
     /// advanced in lockstep (--lockstep).
     Serve(serve::ServeArgs),
+    /// Watch a running machine (over OPC UA with --map, or a logged run with --data): the twin
+    /// estimates its state and tracked parameters with an extended Kalman filter, tests the
+    /// innovations, reports anomalies and the parameter that explains each.
+    Shadow(shadow::ShadowArgs),
 }
 
 /// Runs the command `cli` names, with the built-in controllers: the exit code it ends with, or
@@ -87,6 +92,7 @@ pub fn dispatch(cli: Cli) -> Result<ExitCode, Failure> {
         }
         Command::Run(args) => run::run(args, &registry),
         Command::Serve(args) => serve::serve(args, &registry),
+        Command::Shadow(args) => shadow::shadow(args, &registry),
         Command::Bench(args) => bench::run(args, &registry),
         Command::Reproduce(args) => printed(reproduce::run(args, &registry)),
         Command::Salvage(args) => salvage::run(args),

@@ -4,9 +4,8 @@
 
 mod common;
 
-use common::{finished, scratch};
-use std::net::TcpListener;
-use std::path::{Path, PathBuf};
+use common::{finished, free_port, scratch, tools_python};
+use std::path::Path;
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 use twin::{Scenario, Simulator};
@@ -14,19 +13,6 @@ use twin::{Scenario, Simulator};
 const TORQUE: f64 = 20.0;
 const PERIODS: usize = 100;
 const DURATION: f64 = 0.3;
-
-/// The tools' Python, or a failure saying how to get it.
-fn tools_python() -> PathBuf {
-    std::env::var_os("TWIN_TOOLS_PYTHON")
-        .map(PathBuf::from)
-        .expect("TWIN_TOOLS_PYTHON is unset: run eval \"$(scripts/test-tools)\" first")
-}
-
-/// A port nobody listens on now.
-fn free_port() -> u16 {
-    let listener = TcpListener::bind("127.0.0.1:0").unwrap();
-    listener.local_addr().unwrap().port()
-}
 
 /// The server's output once it has ended; killed (and the test failed by its output) if it
 /// outlives the client by more than a few seconds.
@@ -109,25 +95,7 @@ fn a_python_client_drives_the_crank_in_lockstep() {
     );
     assert!(served.status.success(), "server: {stderr}");
     let seen: serde_json::Value = serde_json::from_slice(&client.stdout).unwrap();
-    let names = |key: &str| {
-        seen[key]
-            .as_array()
-            .unwrap()
-            .iter()
-            .map(|v| v.as_str().unwrap().to_string())
-            .collect::<Vec<_>>()
-    };
-    for part in ["Advance", "Axes", "Commands", "Signals", "Status"] {
-        assert!(names("machine").contains(&part.to_string()), "{seen}");
-    }
-    assert_eq!(
-        names("axis"),
-        ["crank.position", "crank.velocity", "effort.crank"]
-    );
-    assert!(
-        names("signals").contains(&"ram_position".to_string()),
-        "{seen}"
-    );
+    check_address_space(&seen);
     assert_eq!(seen["period_before"], 0);
     assert_eq!(seen["effort_read_back"], TORQUE);
     assert_eq!(seen["advanced_to"], PERIODS as u64);
@@ -243,4 +211,28 @@ fn a_host_beyond_loopback_is_refused() {
     let stderr = String::from_utf8_lossy(&output.stderr);
     assert_eq!(stderr.lines().count(), 1, "{stderr}");
     assert!(stderr.contains("not a loopback address"), "{stderr}");
+}
+
+/// The machine object's parts, the crank's axis folder and a task-space signal, as the client
+/// browsed them.
+fn check_address_space(seen: &serde_json::Value) {
+    let names = |key: &str| {
+        seen[key]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|v| v.as_str().unwrap().to_string())
+            .collect::<Vec<_>>()
+    };
+    for part in ["Advance", "Axes", "Commands", "Signals", "Status"] {
+        assert!(names("machine").contains(&part.to_string()), "{seen}");
+    }
+    assert_eq!(
+        names("axis"),
+        ["crank.position", "crank.velocity", "effort.crank"]
+    );
+    assert!(
+        names("signals").contains(&"ram_position".to_string()),
+        "{seen}"
+    );
 }

@@ -80,7 +80,7 @@ pub fn calibrate<'py>(
 }
 
 /// The scenario argument: a `Scenario`, or a built-in name or file path as `Scenario()` takes.
-fn scenario_of(value: &Bound<'_, PyAny>) -> PyResult<Scenario> {
+pub fn scenario_of(value: &Bound<'_, PyAny>) -> PyResult<Scenario> {
     if let Ok(scenario) = value.cast::<Scenario>() {
         return Ok(scenario.get().clone());
     }

@@ -53,6 +53,15 @@ create_exception!(
      a replay that diverged."
 );
 
+create_exception!(
+    _twin,
+    ShadowError,
+    TwinError,
+    "A shadow refused or failed: an option naming what the scenario lacks (a signal, a tracked \
+     key, an actuator) or out of range, a sample's time that is not a number, or the model \
+     failing on the samples (the estimate is lost: start a new shadow)."
+);
+
 /// A twin error (building, binding or running a scenario) as a Python exception: the
 /// scenario's and model files' mistakes are `ScenarioError`s.
 pub fn from_twin(error: twin::TwinError) -> PyErr {
@@ -85,6 +94,35 @@ pub fn from_calibration(error: twin::calibration::CalibrationError) -> PyErr {
     }
 }
 
+/// A shadow's refusal or failure: the scenario's as a `ScenarioError`, the rest as
+/// `ShadowError`s, the engine's option names (`--track KEY`) put as the keywords that give them.
+pub fn from_shadow(error: twin::shadowing::ShadowError) -> PyErr {
+    use twin::shadowing::ShadowError as Refused;
+    match error {
+        Refused::Twin(error) => from_twin(error),
+        other => ShadowError::new_err(as_keywords(&other.to_string())),
+    }
+}
+
+/// The engine's messages name the command line's options; Python's callers give keywords.
+fn as_keywords(message: &str) -> String {
+    const OPTIONS: [(&str, &str); 7] = [
+        ("--track ", "track: "),
+        ("--noise ", "noise: "),
+        ("--false-alarms ", "false_alarms_per_hour: "),
+        ("--learn ", "learn: "),
+        ("--latency ", "latency: "),
+        ("--process-noise ", "process_noise: "),
+        ("signal `", "signals: `"),
+    ];
+    for (option, keyword) in OPTIONS {
+        if let Some(rest) = message.strip_prefix(option) {
+            return format!("{keyword}{rest}");
+        }
+    }
+    message.to_string()
+}
+
 /// A divergence as a `DivergedError` carrying its figures.
 pub fn diverged(py: Python<'_>, failure: &twin::Divergence) -> PyErr {
     let error = DivergedError::new_err(format!("{failure}; reset the simulator to go on"));
@@ -114,5 +152,6 @@ pub fn add_to(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("DivergedError", py.get_type::<DivergedError>())?;
     m.add("ControllerError", py.get_type::<ControllerError>())?;
     m.add("DataError", py.get_type::<DataError>())?;
-    m.add("CalibrationError", py.get_type::<CalibrationError>())
+    m.add("CalibrationError", py.get_type::<CalibrationError>())?;
+    m.add("ShadowError", py.get_type::<ShadowError>())
 }

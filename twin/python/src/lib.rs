@@ -1,7 +1,8 @@
 //! The twin from Python (`twin._twin`, wrapped by the `twin` package in `python/twin`):
 //! scenarios run to NumPy arrays (`scenario`), the plant stepped from a Python loop
 //! (`simulator`), Python controllers (`controller`), the twin compared with and calibrated
-//! to measured runs (`calibration`). Every Rust error becomes a Python
+//! to measured runs (`calibration`), the twin beside a running machine fed sample by
+//! sample (`shadow`). Every Rust error becomes a Python
 //! exception of the hierarchy below; pyo3 turns a Rust panic into `pyo3_runtime.PanicException`,
 //! never a crashed interpreter.
 
@@ -11,13 +12,14 @@ mod errors;
 mod measured;
 mod result;
 mod scenario;
+mod shadow;
 mod simulator;
 
 use pyo3::prelude::*;
 
 pub use errors::{
-    CalibrationError, ControllerError, DataError, DivergedError, ScenarioError, StepError,
-    TwinError,
+    CalibrationError, ControllerError, DataError, DivergedError, ScenarioError, ShadowError,
+    StepError, TwinError,
 };
 
 /// The built-in scenarios' names, e.g. `whitworth-crank-pi`.
@@ -55,5 +57,6 @@ fn _twin(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<scenario::Scenario>()?;
     m.add_class::<simulator::Simulator>()?;
     m.add_class::<result::RunResult>()?;
+    m.add_class::<shadow::Shadow>()?;
     errors::add_to(m)
 }

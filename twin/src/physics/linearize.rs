@@ -18,13 +18,17 @@
 use super::dynamics::{HeldLoad, Inputs};
 use super::exact::{ExactEngine, ExactSettings};
 use super::{Load, MechanismState};
-use crate::mechanism::Mechanism;
+use crate::mechanism::{Inertial, Mechanism};
 use nalgebra::{DMatrix, DVector};
 
 /// Newton iterations that bring the dependent coordinates onto the loops.
 const CLOSURE_ITERATIONS: usize = 20;
-/// Largest constraint residual (m, rad) accepted.
+/// Largest constraint residual (m, rad) accepted, for coordinates up to 1 in size; a crank
+/// turned many times has angles whose sines are only known to their size × ε, and the
+/// tolerance grows with them.
 const CLOSURE_TOLERANCE: f64 = 1e-13;
+/// Largest step of a coordinate (rad or m) between two closure solves of a continuation.
+const CONTINUATION_STEP: f64 = 0.05;
 /// Pivots below this share of G's largest entry make a constraint row redundant.
 const REDUNDANT_PIVOT: f64 = 1e-9;
 
@@ -169,6 +173,58 @@ impl ReducedDynamics {
         Ok(())
     }
 
+    /// Holds `loads` as they act at x, in place of the operating point's: a model that moves
+    /// through its process (a shadow following a machine) renews them each step, as the engine
+    /// holds a step's process loads.
+    pub fn hold_loads(&mut self, x: &[f64], loads: &[Load]) -> Result<(), ReducedError> {
+        self.place(x)?;
+        let engine = &self.engine;
+        self.loads = loads
+            .iter()
+            .map(|load| {
+                let [vx, vy, _] = engine.kin.point_velocity(load.link, load.point, &engine.v);
+                HeldLoad::new(load, &engine.kin.frames[load.link], [vx, vy])
+            })
+            .collect();
+        Ok(())
+    }
+
+    /// Starts the Newton solves of later states from x's coordinates: a model that moves far
+    /// from its operating point (a crank turning) keeps the loops' branch it is on.
+    pub fn recenter(&mut self, x: &[f64]) -> Result<(), ReducedError> {
+        self.place(x)?;
+        self.q0.clone_from(&self.engine.q);
+        Ok(())
+    }
+
+    /// Recenters on `to` by way of `from` (a state the solves are centred near), in steps of at
+    /// most [`CONTINUATION_STEP`] in any coordinate, so that a large move (a filter's first
+    /// correction) follows the loops' branch instead of jumping to another assembly.
+    pub fn recenter_along(&mut self, from: &[f64], to: &[f64]) -> Result<(), ReducedError> {
+        let k = self.independent.len();
+        let largest = (0..k).fold(0.0_f64, |m, i| m.max((to[i] - from[i]).abs()));
+        let steps = (largest / CONTINUATION_STEP).ceil().max(1.0) as usize;
+        let mut x = to.to_vec();
+        for step in 1..=steps {
+            let share = step as f64 / steps as f64;
+            for i in 0..k {
+                x[i] = from[i] + share * (to[i] - from[i]);
+            }
+            self.recenter(&x)?;
+        }
+        Ok(())
+    }
+
+    /// Changes a link's mass properties for later evaluations.
+    pub fn set_link_inertial(&mut self, link: usize, inertial: Inertial) {
+        self.engine.set_link_inertial(link, inertial);
+    }
+
+    /// Changes a tree joint's viscous damping for later evaluations (dry friction is not in f).
+    pub fn set_joint_damping(&mut self, joint: usize, damping: f64) {
+        self.engine.set_joint_dynamics(joint, damping, 0.0);
+    }
+
     /// The whole mechanism's state at x (every joint, link poses and velocities), for the
     /// machine's measured signals.
     pub fn read_state(
@@ -199,6 +255,8 @@ impl ReducedDynamics {
         if self.dependent.is_empty() {
             return Ok(());
         }
+        let size = engine.q.iter().fold(1.0_f64, |m, q| m.max(q.abs()));
+        let tolerance = CLOSURE_TOLERANCE * size;
         let mut residual = f64::INFINITY;
         for _ in 0..CLOSURE_ITERATIONS {
             engine.dynamics.constraints(model, &engine.kin, None);
@@ -207,7 +265,7 @@ impl ReducedDynamics {
                 self.rows.iter().map(|&r| engine.dynamics.phi[r]),
             );
             residual = phi.amax();
-            if residual <= CLOSURE_TOLERANCE {
+            if residual <= tolerance {
                 break;
             }
             let step = block(
@@ -228,7 +286,7 @@ impl ReducedDynamics {
                 .rapier
                 .pose(&model.mechanism, &engine.q, &mut engine.kin);
         }
-        if residual > CLOSURE_TOLERANCE {
+        if residual > tolerance {
             return Err(ReducedError::Closure { residual });
         }
         engine.dynamics.constraints(model, &engine.kin, None);

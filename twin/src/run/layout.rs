@@ -147,12 +147,12 @@ impl SignalLayout {
     }
 
     /// Where the machine's own signals are among the plant's signals.
-    pub(super) fn machine_signal_range(&self) -> Range<usize> {
+    pub(crate) fn machine_signal_range(&self) -> Range<usize> {
         self.machine_signals.clone()
     }
 
     /// Where the reference triple is among the plant's signals (empty without one).
-    pub(super) fn reference_range(&self) -> Range<usize> {
+    pub(crate) fn reference_range(&self) -> Range<usize> {
         self.reference.map_or(0..0, |start| start..start + 3)
     }
 
@@ -172,7 +172,7 @@ impl SignalLayout {
     }
 
     /// Copies the sensed joints' positions and velocities into the head of `signals`.
-    pub(super) fn fill_joint_signals(&self, state: &MechanismState, signals: &mut [f64]) {
+    pub(crate) fn fill_joint_signals(&self, state: &MechanismState, signals: &mut [f64]) {
         for (k, &j) in self.sensed.iter().enumerate() {
             signals[2 * k] = state.joint_positions[j];
             signals[2 * k + 1] = state.joint_velocities[j];
@@ -180,7 +180,7 @@ impl SignalLayout {
     }
 
     /// The machine's signal slice (to fill) and the reference triple, if any.
-    pub(super) fn machine_and_reference<'a>(
+    pub(crate) fn machine_and_reference<'a>(
         &self,
         signals: &'a mut [f64],
     ) -> (&'a mut [f64], Option<&'a mut [f64]>) {
@@ -190,7 +190,7 @@ impl SignalLayout {
     }
 
     /// The machine's diagnostics, the loop gaps and the mechanical energy, to fill.
-    pub(super) fn split_diagnostics<'a>(
+    pub(crate) fn split_diagnostics<'a>(
         &self,
         diagnostics: &'a mut [f64],
     ) -> (&'a mut [f64], &'a mut [f64], &'a mut f64) {

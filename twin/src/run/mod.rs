@@ -17,6 +17,7 @@ mod summary;
 pub use layout::SignalLayout;
 pub use observer::{Findings, Observer, ObserverError, StepView};
 pub use operating::LinearizeError;
+pub(crate) use operating::ModelParts;
 pub use simulator::{Simulator, StepError};
 pub use summary::{
     to_json, to_table, write_json, Divergence, FailureKind, Interruption, RunSummary,
@@ -40,6 +41,7 @@ use session::Session;
 use spectra::SpectraPlan;
 use stats::RunStats;
 use std::path::Path;
+use std::sync::Arc;
 use std::time::Instant;
 use thiserror::Error;
 
@@ -109,6 +111,15 @@ pub enum TwinError {
 /// A flag a run polls once per step: 0 goes on, any other value (a signal number) stops it.
 pub type StopFlag = std::sync::Arc<std::sync::atomic::AtomicUsize>;
 
+/// A setpoint from outside a whole run (an OPC UA client's, a host's): the offset added to the
+/// scenario's `[reference]` triple, polled at each control update before the controller reads
+/// the reference. See [`Twin::with_setpoints`].
+pub trait SetpointSource: Send + Sync {
+    /// The offset now: position, rate, acceleration, in the reference's SI units. An offset with
+    /// a component that is not finite is ignored (the last one holds).
+    fn offset(&self) -> [f64; 3];
+}
+
 /// A scenario bound to its mechanism, machine and controller, ready to run.
 ///
 /// # Example
@@ -152,6 +163,8 @@ pub struct Twin {
     stop: Option<StopFlag>,
     /// An effort from outside the machine; see [`Twin::with_joint_effort`].
     excitation: Option<Excitation>,
+    /// The reference offset from outside; see [`Twin::with_setpoints`].
+    setpoints: Option<Arc<dyn SetpointSource>>,
 }
 
 /// An effort from outside the machine on one joint (a shaker, an impact hammer): tree joint and
@@ -243,6 +256,7 @@ impl Twin {
             live: None,
             stop: None,
             excitation: None,
+            setpoints: None,
         })
     }
 
@@ -257,6 +271,38 @@ impl Twin {
     pub fn with_stop_flag(mut self, flag: StopFlag) -> Self {
         self.stop = Some(flag);
         self
+    }
+
+    /// Lets `source` move the scenario's reference during the run: at each control update, before
+    /// the controller reads the reference, its offset is added to the `[reference]` triple from
+    /// that update on, as [`Simulator::step_closed_loop`] adds one (the two agree bit for bit; a
+    /// zero offset leaves the run as it is). Refused where an offset cannot reach the controller
+    /// exactly: no `[reference]`, or a sensor or sensor fault on it.
+    pub fn with_setpoints(mut self, source: Arc<dyn SetpointSource>) -> Result<Self, TwinError> {
+        self.reference_inputs().map_err(|why| {
+            self.binding_error(format!(
+                "a setpoint from outside cannot reach the controller: {why}"
+            ))
+        })?;
+        self.setpoints = Some(source);
+        Ok(self)
+    }
+
+    /// Whether a reference offset can reach the controller exactly: the scenario has a
+    /// `[reference]` and no sensor or sensor fault stands between it and the controller; else
+    /// why not.
+    pub(crate) fn reference_inputs(&self) -> Result<(), &'static str> {
+        let range = self.layout.reference_range();
+        if range.is_empty() {
+            return Err("the scenario has no [reference] to offset");
+        }
+        if range
+            .clone()
+            .any(|i| self.sensors[i].is_some() || self.faults.reads_signal(i))
+        {
+            return Err("a sensor or sensor fault stands on the scenario's reference");
+        }
+        Ok(())
     }
 
     /// Adds an effort from outside the machine to `joint` (a shaker or an impact hammer on it):

@@ -7,7 +7,7 @@ use super::{Divergence, TwinError};
 use super::{SignalLayout, Twin};
 use crate::linear::{self, Channel, Description, LinearModel, ModelError, Plant};
 use crate::machines::{self, Machine};
-use crate::mechanism::JointMotion;
+use crate::mechanism::{JointMotion, Mechanism};
 use crate::physics::{Load, MechanismState, ReducedDynamics};
 use framework::EffortKind;
 use thiserror::Error;
@@ -52,6 +52,24 @@ pub enum LinearizeError {
     Model(#[from] ModelError),
 }
 
+/// A model's parts, from [`Twin::model_parts`].
+pub(crate) struct ModelParts {
+    /// The mechanism, with the scenario's plant values.
+    pub mechanism: Mechanism,
+    /// A fresh machine (drives, process, signals).
+    pub machine: Box<dyn Machine>,
+    /// The run's names and units.
+    pub layout: SignalLayout,
+    /// Tree joint of each actuator.
+    pub actuated: Vec<usize>,
+    /// Per actuator, the largest command.
+    pub command_limits: Vec<f64>,
+    /// The mechanism's initial state.
+    pub state: MechanismState,
+    /// The scenario.
+    pub scenario: crate::scenario::Scenario,
+}
+
 /// The last step a run showed: the operating point.
 #[derive(Default)]
 struct Capture {
@@ -94,11 +112,55 @@ impl Twin {
         if let Some(reason) = reason {
             return Err(LinearizeError::At { at, reason });
         }
+        self.own_actuators()?;
+        let capture = self.capture(at)?;
+        self.linearize_at(&capture)
+    }
+
+    /// Runs the scenario with its controller to `at` (s, rounded to the physics step) and
+    /// captures the last step.
+    fn capture(&mut self, at: f64) -> Result<Capture, LinearizeError> {
+        let scenario = &self.loaded.scenario;
+        self.loaded.scenario.duration = (at / scenario.dt).round() * scenario.dt;
+        let mut capture = Capture::default();
+        let ending = Session::new(&mut *self).run(&mut [&mut capture])?;
+        if let Some(failure) = ending.failure {
+            return Err(LinearizeError::Diverged { at, failure });
+        }
+        Ok(capture)
+    }
+
+    /// The parts of a model of the plant beside a machine (a shadow's filter): the mechanism at
+    /// the scenario's initial state, a fresh machine, the layout and the actuators. Refuses, as
+    /// [`Twin::linearize`] does, a machine whose actuators are not all joints.
+    pub(crate) fn model_parts(mut self) -> Result<ModelParts, LinearizeError> {
+        self.own_actuators()?;
+        let capture = self.capture(0.0)?;
+        let scenario = &self.loaded.scenario;
+        let machine = machines::build(&scenario.machine, &self.mechanism, &scenario.process)
+            .map_err(|source| TwinError::Machine {
+                scenario: self.loaded.source.clone(),
+                urdf: self.loaded.urdf_source.clone(),
+                source,
+            })?;
+        Ok(ModelParts {
+            machine,
+            state: capture.state,
+            mechanism: self.mechanism,
+            layout: self.layout,
+            actuated: self.actuated,
+            command_limits: self.command_limits,
+            scenario: self.loaded.scenario,
+        })
+    }
+
+    /// Refuses a machine that drives some of its actuators through states of its own.
+    fn own_actuators(&self) -> Result<(), LinearizeError> {
         if self.plant.actuators.len() > self.actuated.len() {
             let own = &self.plant.actuators[self.actuated.len()..];
             return Err(LinearizeError::OwnActuators {
                 scenario: self.loaded.source.clone(),
-                machine: scenario.machine.clone(),
+                machine: self.loaded.scenario.machine.clone(),
                 actuators: own
                     .iter()
                     .map(|a| a.joint.as_str())
@@ -106,13 +168,7 @@ impl Twin {
                     .join(", "),
             });
         }
-        self.loaded.scenario.duration = (at / scenario.dt).round() * scenario.dt;
-        let mut capture = Capture::default();
-        let ending = Session::new(&mut self).run(&mut [&mut capture])?;
-        if let Some(failure) = ending.failure {
-            return Err(LinearizeError::Diverged { at, failure });
-        }
-        self.linearize_at(&capture)
+        Ok(())
     }
 
     /// The linear model about the captured step.

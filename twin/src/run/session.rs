@@ -131,6 +131,7 @@ impl<T: DerefMut<Target = Twin>> Session<T> {
                     .map(|signal| Interruption { signal, step, time });
             let control_update = step.is_multiple_of(self.control_every) && failure.is_none();
             if control_update {
+                self.poll_setpoints(time);
                 self.control(time);
                 failure = failure.or_else(|| self.limit(step, time));
                 self.twin.faults.actuators(&mut self.values.limited);
@@ -209,6 +210,19 @@ impl<T: DerefMut<Target = Twin>> Session<T> {
         }
         self.decide(time);
         self.actuate(step)
+    }
+
+    /// A run's setpoint source read at the control update at `time`: a new finite offset moves
+    /// the reference from now on, as [`Session::close`] moves it.
+    fn poll_setpoints(&mut self, time: f64) {
+        let Some(source) = &self.twin.setpoints else {
+            return;
+        };
+        let offset = source.offset();
+        if offset != self.reference_offset && offset.iter().all(|v| v.is_finite()) {
+            self.reference_offset = offset;
+            self.resense_reference(time);
+        }
     }
 
     /// The reference triple at `time` sensed again with a new offset, its reading with it: exact
@@ -495,6 +509,7 @@ impl<T: DerefMut<Target = Twin>> Session<T> {
         for (a, &j) in self.twin.actuated.iter().enumerate() {
             values.joint_efforts[j] = values.applied[a];
         }
+        self.twin.faults.collisions(&mut values.joint_efforts);
         if let Some(excitation) = &self.twin.excitation {
             values.joint_efforts[excitation.joint] +=
                 excitation.efforts.get(step).copied().unwrap_or(0.0);

@@ -290,18 +290,7 @@ impl Simulator {
     /// `[reference]` and no sensor or sensor fault stands between it and the controller; else
     /// why not.
     pub fn reference_inputs(&self) -> Result<(), &'static str> {
-        let twin = self.session.twin();
-        let range = twin.layout.reference_range();
-        if range.is_empty() {
-            return Err("the scenario has no [reference] to offset");
-        }
-        if range
-            .clone()
-            .any(|i| twin.sensors[i].is_some() || twin.faults.reads_signal(i))
-        {
-            return Err("a sensor or sensor fault stands on the scenario's reference");
-        }
-        Ok(())
+        self.session.twin().reference_inputs()
     }
 
     /// The reference signals' indices among the plant's signals (empty without a

@@ -282,6 +282,27 @@ impl PlantColumns {
         Some((ColumnRole::True, k))
     }
 
+    /// Binds a column given by name and unit (a live machine's mapped node): its role, its
+    /// index among the actuators or signals and the factor that takes its values to SI; the
+    /// refusal says which names or units fit.
+    pub fn bind_column(&self, name: &str, unit: &str) -> Result<(ColumnRole, usize, f64), String> {
+        let (role, index) = self.role_of(name).ok_or_else(|| {
+            let signals = self.signals.iter().map(|(s, _)| s.as_str());
+            let efforts = self.actuators.iter().map(|(a, _)| format!("effort.{a}"));
+            let known: Vec<String> = efforts.chain(signals.map(str::to_owned)).collect();
+            format!(
+                "`{name}` is not a column of this plant (known: {})",
+                known.join(", ")
+            )
+        })?;
+        let si = match role {
+            ColumnRole::Command => &self.actuators[index].1,
+            ColumnRole::Measured | ColumnRole::True => &self.signals[index].1,
+        };
+        let factor = units::factor(unit, name, si)?;
+        Ok((role, index, factor))
+    }
+
     /// The column name of the actuator or signal `name` in `role`: `effort.<actuator>`,
     /// `<signal>` or `true.<signal>`.
     pub fn column_name(role: ColumnRole, name: &str) -> String {

@@ -1,6 +1,7 @@
 //! The served address space: one object per machine, under it a folder per axis (OPC 40502
 //! CncAxis in spirit: actual position, actual velocity, commanded effort), the signals, the
-//! commands (the only writable variables), the run's status and the `Advance` method.
+//! commands (the only writable variables: the efforts, or with the scenario's controller inside
+//! its setpoint offsets), the run's status and the `Advance` method.
 
 use super::shared::{AdvanceRefusal, Shared};
 use opcua::server::address_space::{AddressSpace, MethodBuilder, ObjectBuilder, VariableBuilder};
@@ -36,11 +37,28 @@ pub const STATUS: [(&str, DataTypeId, &str); 5] = [
     ),
 ];
 
+/// The setpoint variables of `--with-controller`, by their names under `setpoint.`, in the
+/// order of the reference offset, each with the reference signal it offsets.
+pub const SETPOINTS: [&str; 3] = ["reference", "reference_rate", "reference_acceleration"];
+
+/// Who commands the actuators of a served run.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Commanding {
+    /// The client writes `effort.<joint>`.
+    Client,
+    /// The scenario's controller; the client writes `setpoint.<reference>`, and `effort.<joint>`
+    /// shows what the controller commands (read only).
+    Controller,
+}
+
 /// The node ids the run publishes to, in the layout's order.
 #[derive(Debug, Clone)]
 pub struct Nodes {
     /// One per measured plant signal.
     pub signals: Vec<NodeId>,
+    /// One per actuator when the scenario's controller commands them (published as it
+    /// commands); none when the client does.
+    pub efforts: Vec<NodeId>,
     /// In the order of [`STATUS`].
     pub status: Vec<NodeId>,
 }
@@ -53,6 +71,7 @@ pub fn build(
     machine: &str,
     layout: &SignalLayout,
     shared: &Arc<Shared>,
+    commanding: Commanding,
 ) -> Nodes {
     let id = |name: &str| NodeId::new(ns, name.to_string());
     let root = id(machine);
@@ -66,7 +85,10 @@ pub fn build(
         space.add_folder(&folder_id, QualifiedName::new(ns, folder), folder, &root);
     }
     let signals = add_signals(&mut space, &id, machine, layout);
-    add_commands(&mut space, &id, machine, layout);
+    let efforts = add_commands(&mut space, &id, machine, layout, commanding);
+    if commanding == Commanding::Controller {
+        add_setpoints(&mut space, &id, machine, layout);
+    }
     add_axes(&mut space, &id, machine, layout);
     let status = STATUS
         .iter()
@@ -83,9 +105,16 @@ pub fn build(
         .collect();
     add_advance(&mut space, &id, &root);
     drop(space);
-    hook_commands(manager, &id, layout, shared);
+    match commanding {
+        Commanding::Client => hook_commands(manager, &id, layout, shared),
+        Commanding::Controller => hook_setpoints(manager, &id, shared),
+    }
     hook_advance(manager, id("Advance"), shared.clone());
-    Nodes { signals, status }
+    Nodes {
+        signals,
+        efforts,
+        status,
+    }
 }
 
 /// A status variable's value before the run's first step.
@@ -129,24 +158,70 @@ fn add_signals(
         .collect()
 }
 
+/// The `effort.<joint>` variables: writable when the client commands, else read only (the
+/// controller's commands, returned to be published).
 fn add_commands(
+    space: &mut AddressSpace,
+    id: &dyn Fn(&str) -> NodeId,
+    machine: &str,
+    layout: &SignalLayout,
+    commanding: Commanding,
+) -> Vec<NodeId> {
+    let folder = id(&format!("{machine}.Commands"));
+    let mut published = Vec::new();
+    for (joint, units) in layout.actuators.iter().zip(&layout.specs.efforts) {
+        let name = format!("effort.{joint}");
+        let node = id(&name);
+        let unit = units[0].label();
+        let builder = VariableBuilder::new(
+            &node,
+            QualifiedName::new(node.namespace, &name),
+            name.as_str(),
+        )
+        .data_type(DataTypeId::Double)
+        .value(0.0)
+        .organized_by(folder.clone());
+        let builder = match commanding {
+            Commanding::Client => builder
+                .description(format!(
+                    "the command to actuator {joint}, {unit} (held between control updates)"
+                ))
+                .writable(),
+            Commanding::Controller => {
+                published.push(node.clone());
+                builder.description(format!(
+                    "the scenario's controller's command to actuator {joint}, {unit}, before \
+                     its limit (read only: the controller commands it)"
+                ))
+            }
+        };
+        builder.insert(space);
+    }
+    published
+}
+
+/// The writable `setpoint.<reference>` variables: offsets on the scenario's reference triple.
+fn add_setpoints(
     space: &mut AddressSpace,
     id: &dyn Fn(&str) -> NodeId,
     machine: &str,
     layout: &SignalLayout,
 ) {
     let folder = id(&format!("{machine}.Commands"));
-    for (joint, units) in layout.actuators.iter().zip(&layout.specs.efforts) {
-        let name = format!("effort.{joint}");
+    for signal in SETPOINTS {
+        let name = format!("setpoint.{signal}");
         let node = id(&name);
+        let unit = layout
+            .signal(signal)
+            .map_or("SI", |i| layout.specs.signals[i].unit.si_label());
         VariableBuilder::new(
             &node,
             QualifiedName::new(node.namespace, &name),
             name.as_str(),
         )
         .description(format!(
-            "the command to actuator {joint}, {} (held between control updates)",
-            units[0].label()
+            "the offset added to the scenario's {signal}, {unit} (the reference's SI unit), \
+             from the next control update on"
         ))
         .data_type(DataTypeId::Double)
         .value(0.0)
@@ -235,6 +310,33 @@ fn hook_commands(
             .inner()
             .add_read_callback(node, move |_range, _timestamps, _age| {
                 Ok(DataValue::new_now(reader.command(index)))
+            });
+    }
+}
+
+/// Writes to `setpoint.<reference>` go to the shared offset (finite numbers only); reads
+/// return it.
+fn hook_setpoints(manager: &SimpleNodeManager, id: &dyn Fn(&str) -> NodeId, shared: &Arc<Shared>) {
+    for (index, signal) in SETPOINTS.iter().enumerate() {
+        let node = id(&format!("setpoint.{signal}"));
+        let writer = shared.clone();
+        manager
+            .inner()
+            .add_write_callback(node.clone(), move |value, _range| {
+                match value.value.and_then(|v| v.try_cast_to::<f64>().ok()) {
+                    Some(offset) if offset.is_finite() => {
+                        writer.set_setpoint(index, offset);
+                        StatusCode::Good
+                    }
+                    Some(_) => StatusCode::BadOutOfRange,
+                    None => StatusCode::BadTypeMismatch,
+                }
+            });
+        let reader = shared.clone();
+        manager
+            .inner()
+            .add_read_callback(node, move |_range, _timestamps, _age| {
+                Ok(DataValue::new_now(reader.setpoint_component(index)))
             });
     }
 }

@@ -1,4 +1,5 @@
-//! The `--opcua` URL: `opc.tcp://HOST[:PORT]`, checked to be a loopback address.
+//! The `--opcua` URL: `opc.tcp://HOST[:PORT]`, and whether it may be served: a loopback address
+//! always, any other only with security (Sign or SignAndEncrypt) and a user.
 
 use super::error::ServeError;
 use std::net::{IpAddr, Ipv4Addr, SocketAddr};
@@ -20,6 +21,28 @@ pub struct Endpoint {
 /// Parses `opc.tcp://HOST[:PORT][/]`: HOST an IP literal (IPv6 in brackets) or `localhost`;
 /// refuses any address that is not loopback.
 pub fn parse(url: &str) -> Result<Endpoint, ServeError> {
+    let endpoint = parse_any(url)?;
+    if !endpoint.addr.ip().is_loopback() {
+        return Err(ServeError::NotLoopback {
+            url: url.to_string(),
+            host: endpoint.host,
+        });
+    }
+    Ok(endpoint)
+}
+
+/// Parses `opc.tcp://HOST[:PORT][/]` as [`parse`] does, and accepts a host beyond loopback only
+/// when the server is `secure` (Sign or SignAndEncrypt) and asks for a user's password.
+pub fn parse_served(url: &str, secure: bool, user: bool) -> Result<Endpoint, ServeError> {
+    if secure && user {
+        parse_any(url)
+    } else {
+        parse(url)
+    }
+}
+
+/// Parses `opc.tcp://HOST[:PORT][/]`, any address.
+fn parse_any(url: &str) -> Result<Endpoint, ServeError> {
     let bad = |reason: &str| ServeError::Endpoint {
         url: url.to_string(),
         reason: reason.to_string(),
@@ -38,12 +61,6 @@ pub fn parse(url: &str) -> Result<Endpoint, ServeError> {
         host.parse::<IpAddr>()
             .map_err(|_| bad("the host must be an IP address or localhost"))?
     };
-    if !ip.is_loopback() {
-        return Err(ServeError::NotLoopback {
-            url: url.to_string(),
-            host: host.to_string(),
-        });
-    }
     Ok(Endpoint {
         addr: SocketAddr::new(ip, port),
         host: host.to_string(),
@@ -102,5 +119,18 @@ mod tests {
         ] {
             assert!(parse(url).is_err(), "{url}");
         }
+    }
+
+    #[test]
+    fn beyond_loopback_needs_security_and_a_user() {
+        let url = "opc.tcp://0.0.0.0:4840";
+        for (secure, user) in [(false, false), (true, false), (false, true)] {
+            assert!(matches!(
+                parse_served(url, secure, user),
+                Err(ServeError::NotLoopback { .. })
+            ));
+        }
+        assert_eq!(parse_served(url, true, true).unwrap().addr.port(), 4840);
+        assert!(parse_served("opc.tcp://127.0.0.1:4840", false, false).is_ok());
     }
 }

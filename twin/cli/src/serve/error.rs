@@ -13,10 +13,12 @@ pub enum ServeError {
         /// What is wrong with it.
         reason: String,
     },
-    /// The host is not a loopback address; security policy None is only served on loopback.
+    /// The host is not a loopback address, and the server is not secured: security policy None
+    /// and anonymous sessions are only served on loopback.
     #[error(
-        "--opcua {url}: {host} is not a loopback address; `twin serve` has no certificates yet, \
-         and serves security policy None only on 127.0.0.1, ::1 or localhost"
+        "--opcua {url}: {host} is not a loopback address; serving beyond 127.0.0.1, ::1 or \
+         localhost needs --security sign-encrypt (or sign) and --user NAME with its password \
+         (--password-file FILE or TWIN_OPCUA_PASSWORD)"
     )]
     NotLoopback {
         /// The URL as given.
@@ -35,6 +37,9 @@ pub enum ServeError {
         /// Why.
         source: std::io::Error,
     },
+    /// The security settings or the PKI folder are unusable.
+    #[error(transparent)]
+    Security(#[from] super::security::SecurityError),
     /// The server could not be configured or built.
     #[error("cannot build the OPC UA server: {0}")]
     Server(String),

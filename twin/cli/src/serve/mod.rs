@@ -1,31 +1,37 @@
 //! `twin serve`: a scenario's run as a virtual machine over OPC UA. The client writes the
-//! actuators' commands and reads the measured signals; the run is paced to the wall clock or
-//! advanced in lockstep by the client.
+//! actuators' commands (or, with the scenario's controller inside, its setpoint) and reads the
+//! measured signals; the run is paced to the wall clock or advanced in lockstep by the client.
 
 mod address_space;
 mod controller;
-mod endpoint;
+pub(crate) mod endpoint;
 mod error;
 mod pacing;
 mod publisher;
+pub(crate) mod security;
 mod server;
 mod shared;
 
 pub use error::ServeError;
+pub use security::{Security, SecurityError, PASSWORD_ENV};
 
 use crate::failure::Failure;
 use crate::signals::stop_on_signals;
-use controller::ClientCommands;
+use address_space::Commanding;
+use controller::{ClientCommands, ScenarioController};
 use framework::Registry;
 use pacing::Pacing;
 use publisher::{Pace, Publisher};
-use server::OpcUaServer;
+use server::{OpcUaServer, ServerSecurity};
 use shared::Shared;
 use std::path::PathBuf;
 use std::process::ExitCode;
 use std::sync::Arc;
 use std::time::Duration;
-use twin::{same_file, summary, LiveViewer, OutputFile, Overrides, Scenario, Twin};
+use twin::{
+    same_file, summary, LiveViewer, LoadedScenario, OutputFile, Overrides, Scenario, Twin,
+    TwinError,
+};
 
 /// How long the server stays up after the run, so that a client's last call gets its answer.
 const LINGER: Duration = Duration::from_millis(300);
@@ -35,10 +41,28 @@ const LINGER: Duration = Duration::from_millis(300);
 pub struct ServeArgs {
     /// A built-in scenario name or a scenario .toml file.
     pub scenario: String,
-    /// Where the OPC UA server listens: opc.tcp://HOST:PORT, HOST a loopback address
-    /// (127.0.0.1, ::1 or localhost; security policy None, anonymous, no certificates).
+    /// Where the OPC UA server listens: opc.tcp://HOST:PORT, HOST a loopback address (127.0.0.1,
+    /// ::1 or localhost), or any address (0.0.0.0) with --security sign or sign-encrypt and
+    /// --user.
     #[arg(long, default_value = "opc.tcp://127.0.0.1:4840")]
     pub opcua: String,
+    /// OPC UA security: none (no certificates; loopback only), sign or sign-encrypt
+    /// (Basic256Sha256; clients' certificates must be in the PKI folder's trusted/).
+    #[arg(long, value_enum, default_value_t = Security::None)]
+    pub security: Security,
+    /// The server's PKI folder with sign or sign-encrypt: its certificate (own/cert.der, made
+    /// on first use), private key, trusted/ and rejected/ client certificates
+    /// [default: $XDG_DATA_HOME/twin/pki/serve, else ~/.local/share/twin/pki/serve].
+    #[arg(long, value_name = "DIR")]
+    pub pki: Option<PathBuf>,
+    /// Require this user name (and its password) of every session; anonymous sessions are
+    /// then refused.
+    #[arg(long, value_name = "NAME")]
+    pub user: Option<String>,
+    /// The --user's password: the first line of this file (else the TWIN_OPCUA_PASSWORD
+    /// environment variable; never on the command line).
+    #[arg(long, value_name = "FILE")]
+    pub password_file: Option<PathBuf>,
     /// Override a scenario value: a dotted key into the TOML.
     #[arg(long = "set", value_name = "KEY=VALUE")]
     pub set: Vec<String>,
@@ -52,6 +76,11 @@ pub struct ServeArgs {
     /// method, instead of pacing to the wall clock.
     #[arg(long)]
     pub lockstep: bool,
+    /// Keep the scenario's controller in the loop: the client writes offsets on the scenario's
+    /// reference (setpoint.reference, setpoint.reference_rate, setpoint.reference_acceleration)
+    /// instead of the efforts, which it reads.
+    #[arg(long)]
+    pub with_controller: bool,
     /// Recording to write (default: `<scenario>.rrd` in the current folder).
     #[arg(long)]
     pub out: Option<PathBuf>,
@@ -72,7 +101,13 @@ pub fn serve(args: &ServeArgs, registry: &Registry) -> Result<ExitCode, Failure>
             args.rate
         )));
     }
-    let endpoint = endpoint::parse(&args.opcua).map_err(|e| Failure::usage(e.to_string()))?;
+    let security = server_security(args)?;
+    let endpoint = endpoint::parse_served(
+        &args.opcua,
+        security.security.is_secure(),
+        security.user.is_some(),
+    )
+    .map_err(|e| Failure::usage(e.to_string()))?;
     let overrides = Overrides {
         controller: None,
         duration: args.duration,
@@ -97,11 +132,14 @@ pub fn serve(args: &ServeArgs, registry: &Registry) -> Result<ExitCode, Failure>
         .map(OutputFile::create)
         .transpose()?;
     let machine = loaded.scenario.machine.clone();
-    let server = OpcUaServer::bind(endpoint)?;
+    let server = OpcUaServer::bind(endpoint, security)?;
+    if let Some(line) = server.describe() {
+        eprintln!("{line}");
+    }
     let stop = stop_on_signals()?;
     let shared = Arc::new(Shared::default());
-    let mut twin = Twin::with_controller(loaded, Box::new(ClientCommands::new(shared.clone())))?
-        .with_stop_flag(stop.clone());
+    let (twin, commanding) = served_twin(loaded, &shared, args, registry)?;
+    let mut twin = twin.with_stop_flag(stop.clone());
     if let Some(url) = &args.connect {
         twin = twin.with_live_viewer(LiveViewer::Connect(url.clone()));
     }
@@ -110,7 +148,7 @@ pub fn serve(args: &ServeArgs, registry: &Registry) -> Result<ExitCode, Failure>
     } else {
         Pace::WallClock(Pacing::new(args.rate))
     };
-    let mut publisher = Publisher::new(server, &machine, shared, pace, stop);
+    let mut publisher = Publisher::new(server, &machine, shared, pace, stop, commanding);
     let result = twin.run_with(Some(&out), &mut [&mut publisher]);
     let misses = publisher.deadline_misses();
     let result = result?;
@@ -121,4 +159,68 @@ pub fn serve(args: &ServeArgs, registry: &Registry) -> Result<ExitCode, Failure>
         println!("deadline misses: {misses}");
     }
     crate::run::finish(&result, summary_file)
+}
+
+/// The twin served: the client's commands in place of the scenario's controller, or
+/// (`--with-controller`) the scenario's controller with the client's setpoint offsets, refused in
+/// one line where the scenario has no reference an offset can reach.
+fn served_twin(
+    loaded: LoadedScenario,
+    shared: &Arc<Shared>,
+    args: &ServeArgs,
+    registry: &Registry,
+) -> Result<(Twin, Commanding), Failure> {
+    if !args.with_controller {
+        let client = Box::new(ClientCommands::new(shared.clone()));
+        return Ok((Twin::with_controller(loaded, client)?, Commanding::Client));
+    }
+    // The scenario's controller as its build made it (which succeeded on these very inputs).
+    let spec = &loaded.scenario.controller;
+    let own =
+        (registry.build(&spec.name, &loaded.scenario.machine, &spec.params)).map_err(|source| {
+            TwinError::Controller {
+                context: loaded.source.clone(),
+                source,
+            }
+        })?;
+    let controller = Box::new(ScenarioController::new(own, shared.clone()));
+    let twin = Twin::with_controller(loaded, controller)?
+        .with_setpoints(shared.clone())
+        .map_err(|e| Failure::usage(format!("--with-controller: {e}")))?;
+    Ok((twin, Commanding::Controller))
+}
+
+/// The security flags checked and the password read: `--pki` only with sign or sign-encrypt,
+/// `--password-file` only with `--user`.
+fn server_security(args: &ServeArgs) -> Result<ServerSecurity, Failure> {
+    if let (Some(dir), Security::None) = (&args.pki, args.security) {
+        return Err(Failure::usage(format!(
+            "--pki {}: used only with --security sign or sign-encrypt",
+            dir.display()
+        )));
+    }
+    let user = match (&args.user, &args.password_file) {
+        (Some(user), file) => {
+            if user.is_empty() {
+                return Err(Failure::usage("--user: the user name is empty"));
+            }
+            let password = security::read_password(user, file.as_deref()).map_err(|e| match e {
+                SecurityError::Credentials(message) => Failure::usage(message),
+                other => Failure::from(other),
+            })?;
+            Some((user.clone(), password))
+        }
+        (None, Some(file)) => {
+            return Err(Failure::usage(format!(
+                "--password-file {}: give the user name with --user NAME too",
+                file.display()
+            )))
+        }
+        (None, None) => None,
+    };
+    Ok(ServerSecurity {
+        security: args.security,
+        pki: args.pki.clone(),
+        user,
+    })
 }

@@ -1,6 +1,8 @@
 //! The observer of a served run: starts the server on the run's names, publishes the measured
-//! signals and the status at each control update, and paces the run (wall clock or lockstep).
+//! signals (and the scenario's controller's commands, when it is inside) and the status at each
+//! control update, and paces the run (wall clock or lockstep).
 
+use super::address_space::Commanding;
 use super::pacing::Pacing;
 use super::server::{OpcUaServer, Published};
 use super::shared::Shared;
@@ -24,19 +26,21 @@ pub struct Publisher {
     shared: Arc<Shared>,
     pace: Pace,
     stop: StopFlag,
+    commanding: Commanding,
     published: Option<Published>,
     /// Control updates reached so far.
     updates: u64,
 }
 
 impl Publisher {
-    /// A publisher serving `machine` on `server`.
+    /// A publisher serving `machine` on `server`, its actuators commanded as `commanding` says.
     pub fn new(
         server: OpcUaServer,
         machine: &str,
         shared: Arc<Shared>,
         pace: Pace,
         stop: StopFlag,
+        commanding: Commanding,
     ) -> Self {
         Self {
             server,
@@ -44,6 +48,7 @@ impl Publisher {
             shared,
             pace,
             stop,
+            commanding,
             published: None,
             updates: 0,
         }
@@ -86,13 +91,14 @@ impl Publisher {
             Variant::from("running"),
             Variant::UInt64(self.deadline_misses()),
         ];
-        let signals = published
-            .nodes
-            .signals
-            .iter()
-            .zip(view.measured.iter().map(|v| Variant::Double(*v)));
+        let nodes = &published.nodes;
+        let signals = (nodes.signals.iter()).zip(view.measured.iter().map(|v| Variant::Double(*v)));
+        // Empty when the client commands: its own writes are what the efforts read.
+        let efforts =
+            (nodes.efforts.iter()).zip(view.commanded.iter().map(|v| Variant::Double(*v)));
         let values = signals
-            .chain(published.nodes.status.iter().zip(status))
+            .chain(efforts)
+            .chain(nodes.status.iter().zip(status))
             .map(|(id, value)| (id, None, DataValue::new_now(value)));
         published
             .manager
@@ -121,7 +127,8 @@ fn log_miss(shared: &Shared, misses: u64, time: f64, late: f64) {
 
 impl Observer for Publisher {
     fn start(&mut self, layout: &SignalLayout) -> Result<(), ObserverError> {
-        self.published = Some(self.server.start(&self.machine, layout, &self.shared)?);
+        self.published =
+            Some((self.server).start(&self.machine, layout, &self.shared, self.commanding)?);
         Ok(())
     }
 

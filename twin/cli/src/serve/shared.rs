@@ -1,9 +1,9 @@
-//! What the OPC UA server and the run share: the commands the client wrote, and the lockstep
-//! gate through which `Advance` lets the run go on.
+//! What the OPC UA server and the run share: the commands (or the setpoint offset) the client
+//! wrote, and the lockstep gate through which `Advance` lets the run go on.
 
 use std::sync::{Condvar, Mutex, MutexGuard, PoisonError};
 use std::time::Duration;
-use twin::StopFlag;
+use twin::{SetpointSource, StopFlag};
 
 /// How long the run waits for a grant before it looks at the stop flag again.
 const STOP_POLL: Duration = Duration::from_millis(50);
@@ -12,6 +12,8 @@ const STOP_POLL: Duration = Duration::from_millis(50);
 #[derive(Debug, Default)]
 pub struct Shared {
     commands: Mutex<Vec<f64>>,
+    /// The offset on the scenario's reference triple (`--with-controller`).
+    setpoint: Mutex<[f64; 3]>,
     /// What the run should log at its next control update (deadline misses).
     notes: Mutex<Vec<String>>,
     gate: Mutex<Gate>,
@@ -58,6 +60,22 @@ impl Shared {
     /// Actuator `index`'s latest command (0 beyond the actuators).
     pub fn command(&self, index: usize) -> f64 {
         self.commands().get(index).copied().unwrap_or(0.0)
+    }
+
+    fn setpoint(&self) -> MutexGuard<'_, [f64; 3]> {
+        self.setpoint.lock().unwrap_or_else(PoisonError::into_inner)
+    }
+
+    /// Sets component `index` of the reference offset (ignored beyond the three).
+    pub fn set_setpoint(&self, index: usize, value: f64) {
+        if let Some(component) = self.setpoint().get_mut(index) {
+            *component = value;
+        }
+    }
+
+    /// Component `index` of the reference offset (0 beyond the three).
+    pub fn setpoint_component(&self, index: usize) -> f64 {
+        self.setpoint().get(index).copied().unwrap_or(0.0)
     }
 
     /// Copies the latest commands into `efforts`.
@@ -123,6 +141,12 @@ impl Shared {
     pub fn end(&self) {
         self.gate().ended = true;
         self.changed.notify_all();
+    }
+}
+
+impl SetpointSource for Shared {
+    fn offset(&self) -> [f64; 3] {
+        *self.setpoint()
     }
 }
 

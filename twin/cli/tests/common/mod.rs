@@ -70,3 +70,18 @@ pub fn parts(dir: &Path) -> Vec<String> {
         .filter(|f| f.ends_with(".part"))
         .collect()
 }
+
+/// The tools' Python (`scripts/test-tools`: asyncua, MuJoCo, …), or a failure saying how to get
+/// it.
+pub fn tools_python() -> PathBuf {
+    match std::env::var_os("TWIN_TOOLS_PYTHON") {
+        Some(path) if !path.is_empty() => PathBuf::from(path),
+        _ => panic!("TWIN_TOOLS_PYTHON is unset: run eval \"$(scripts/test-tools)\" first"),
+    }
+}
+
+/// A loopback port nobody listens on now.
+pub fn free_port() -> u16 {
+    let listener = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
+    listener.local_addr().unwrap().port()
+}

@@ -14,6 +14,12 @@ Against a machine's measured runs (CSV, Parquet or a twin ``.rrd``, as ``RunResu
 twin is from it, per signal; ``twin.calibrate(scenario, paths, fit=[key, …])`` fits scenario
 values to runs and returns the estimates with their intervals and the calibrated scenario.
 
+Beside a running machine, with your own transport (MQTT, ROS 2, a historian):
+``shadow = Shadow(scenario, signals=[…], track=[key, …])`` takes the machine's samples with their
+timestamps (``shadow.command(actuator, t, value)``, ``shadow.measure(signal, t, value)``, late,
+out of order or repeated), and ``shadow.advance()`` returns its estimates, residuals and tests;
+``shadow.anomalies`` lists the anomalies found, each with the tracked parameter that explains it.
+
 Errors are exceptions beneath :class:`TwinError` that name the key, actuator or file at fault.
 """
 
@@ -25,6 +31,8 @@ from ._twin import (
     RunResult,
     Scenario,
     ScenarioError,
+    Shadow,
+    ShadowError,
     Simulator,
     StepError,
     TwinError,
@@ -41,6 +49,8 @@ __all__ = [
     "RunResult",
     "Scenario",
     "ScenarioError",
+    "Shadow",
+    "ShadowError",
     "Simulator",
     "StepError",
     "TwinError",

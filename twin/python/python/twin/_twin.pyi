@@ -26,6 +26,7 @@ class DivergedError(StepError):
 class ControllerError(TwinError): ...
 class DataError(TwinError): ...
 class CalibrationError(TwinError): ...
+class ShadowError(TwinError): ...
 
 class Controller(Protocol):
     def update(self, t: float, measurements: npt.NDArray[np.float64]) -> Efforts: ...
@@ -187,3 +188,129 @@ class RunResult:
     def ok(self) -> bool: ...
     def to_csv(self, path: Path) -> None: ...
     def to_parquet(self, path: Path) -> None: ...
+
+class Attribution(TypedDict):
+    """The tracked parameter named as an anomaly's cause."""
+
+    parameter: str
+    #: Its estimate at the anomaly's start, SI.
+    before: float
+    #: Its estimate now (or at the anomaly's end), SI.
+    estimate: float
+    #: The estimate's 95 % interval, SI.
+    interval: tuple[float, float]
+    #: How far it moved, in its standard deviations.
+    shift_sigmas: float
+
+class Anomaly(TypedDict):
+    """A stretch of time in which the machine stopped behaving like its model (times in s since
+    the shadow's first sample)."""
+
+    #: The signals whose tests alarmed, and the parameters that drifted.
+    signals: list[str]
+    #: The change point the tests place its start at.
+    start: float
+    detected: float
+    #: None while it lasts.
+    end: Union[float, None]
+    #: The largest standardised shift of an innovation, σ of a healthy block mean.
+    size: float
+    attribution: Union[Attribution, None]
+
+class AnomalyChange(Anomaly):
+    """An anomaly that opened or closed at a step."""
+
+    #: `"opened"` or `"closed"`.
+    kind: str
+
+class ShadowTests(TypedDict):
+    """The detector's statistics, each in units of its threshold (alarm above 1)."""
+
+    cusum: dict[str, float]
+    nis: float
+    drift: dict[str, float]
+
+class ShadowStep(TypedDict):
+    """What one processed measurement time gave (`Shadow.advance`, `Shadow.flush`)."""
+
+    #: s since the first sample.
+    time: float
+    #: s on the source's clock.
+    source_time: float
+    #: The signals measured at this time, SI.
+    measured: dict[str, float]
+    #: What the model predicted for them before the update.
+    predicted: dict[str, float]
+    #: Measured less predicted.
+    residual: dict[str, float]
+    #: The residual over its predicted standard deviation.
+    normalised: dict[str, float]
+    #: Every watched signal as the corrected estimate gives it.
+    estimate: dict[str, float]
+    #: Each tracked parameter's (estimate, σ), SI.
+    parameters: dict[str, tuple[float, float]]
+    tests: ShadowTests
+    #: Whether an anomaly is open.
+    alarm: bool
+    #: Whether the detector is still learning the healthy statistics.
+    learning: bool
+    change: Union[AnomalyChange, None]
+
+class ShadowCounts(TypedDict):
+    processed: int
+    late: int
+    duplicate: int
+    reordered: int
+
+class ShadowThresholds(TypedDict):
+    cusum: float
+    nis: float
+    drift: float
+
+class Shadow:
+    def __init__(
+        self,
+        scenario: Union[Scenario, Path],
+        *,
+        signals: Union[str, Sequence[str]],
+        track: Union[
+            str,
+            Sequence[Union[str, tuple[str, Union[float, None]]]],
+            Mapping[str, Union[float, None]],
+            None,
+        ] = None,
+        false_alarms_per_hour: float = 0.1,
+        learn: float = 5.0,
+        latency: float = 0.25,
+        noise: Union[Mapping[str, float], None] = None,
+        process_noise: Union[float, None] = None,
+        set: Union[Mapping[str, Value], None] = None,
+    ) -> None: ...
+    @staticmethod
+    def watchable(scenario: Union[Scenario, Path]) -> list[str]: ...
+    def command(self, actuator: str, t: float, value: float) -> None: ...
+    def measure(self, signal: str, t: float, value: float) -> None: ...
+    def advance(self) -> list[ShadowStep]: ...
+    def flush(self) -> list[ShadowStep]: ...
+    @property
+    def anomalies(self) -> list[Anomaly]: ...
+    @property
+    def estimates(self) -> dict[str, tuple[float, float]]: ...
+    @property
+    def counts(self) -> ShadowCounts: ...
+    @property
+    def thresholds(self) -> Union[ShadowThresholds, None]: ...
+    @property
+    def watched(self) -> list[str]: ...
+    @property
+    def parameters(self) -> list[str]: ...
+    @property
+    def actuators(self) -> list[str]: ...
+    @property
+    def units(self) -> dict[str, str]: ...
+    @property
+    def command_units(self) -> dict[str, str]: ...
+    @property
+    def origin(self) -> Union[float, None]: ...
+    @property
+    def newest(self) -> Union[float, None]: ...

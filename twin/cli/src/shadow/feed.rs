@@ -1,0 +1,350 @@
+//! Where a shadow's samples come from: a logged run played in (at once or at its own pace), or
+//! a live machine over OPC UA through its map; and the loop that feeds them to the shadow,
+//! records each processed step and publishes it.
+
+use super::publish::Publisher;
+use super::ShadowArgs;
+use crate::failure::Failure;
+use crate::machine_link::{LinkEvent, LinkOptions, MachineLink, MachineMap};
+use crate::serve::security::read_password;
+use framework::EventLevel;
+use std::path::Path;
+use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
+use twin::data::{parse_renames, ColumnRole, RunData};
+use twin::shadowing::{describe, Shadow, ShadowRecording, ShadowStep};
+use twin::StopFlag;
+
+/// How long the live loop waits for a sample before it looks at the stop flag again.
+const POLL: Duration = Duration::from_millis(20);
+
+/// What a column carries into the shadow.
+#[derive(Debug, Clone)]
+pub enum Binding {
+    /// An actuator's command (index) and the factor to SI.
+    Command(usize, f64),
+    /// A watched signal and the factor to SI.
+    Measured(String, f64),
+    /// A column the shadow does not use (true values, signals not watched).
+    Unused,
+}
+
+/// The source of samples.
+pub enum Feed {
+    /// A logged run.
+    Data {
+        data: RunData,
+        bindings: Vec<Binding>,
+    },
+    /// A live machine.
+    Live {
+        map: MachineMap,
+        path: String,
+        link: Option<MachineLink>,
+        endpoint: String,
+        bindings: Vec<Binding>,
+    },
+}
+
+/// How the feeding went, for the report.
+#[derive(Debug, Default)]
+pub struct Outcome {
+    /// Wall-clock cost of each processed step, s.
+    pub costs: Vec<f64>,
+    /// Live: wall-clock time from each step's source timestamp to its being recorded, s.
+    pub latencies: Vec<f64>,
+    /// Live: connection losses, (lost at, restored at) in machine seconds since the first
+    /// sample.
+    pub gaps: Vec<(f64, Option<f64>)>,
+    /// The signal that stopped it, if one did.
+    pub interrupted: Option<usize>,
+}
+
+impl Feed {
+    /// Reads the data or the map (connecting happens once the shadow is bound).
+    pub fn open(args: &ShadowArgs) -> Result<Self, Failure> {
+        if let Some(path) = &args.data {
+            let renames = parse_renames(&args.rename)?;
+            return Ok(Feed::Data {
+                data: RunData::read(path, &renames)?,
+                bindings: Vec::new(),
+            });
+        }
+        let path = args.map.as_deref().unwrap_or(Path::new("map.toml"));
+        let map = MachineMap::read(path)?;
+        let endpoint = args.opcua.clone().or(map.endpoint.clone()).ok_or_else(|| {
+            Failure::usage(format!(
+                "{}: no endpoint: give --opcua opc.tcp://HOST:PORT or `endpoint` in the map",
+                path.display()
+            ))
+        })?;
+        Ok(Feed::Live {
+            map,
+            path: path.display().to_string(),
+            link: None,
+            endpoint,
+            bindings: Vec::new(),
+        })
+    }
+
+    /// The measured columns the source gives among `watchable`, in its order.
+    pub fn measured_columns(&self, watchable: &[String]) -> Vec<String> {
+        let names: Vec<&str> = match self {
+            Feed::Data { data, .. } => data.columns.iter().map(|c| c.name.as_str()).collect(),
+            Feed::Live { map, .. } => map.nodes.iter().map(|n| n.column.as_str()).collect(),
+        };
+        names
+            .into_iter()
+            .filter(|name| watchable.iter().any(|w| w == name))
+            .map(str::to_owned)
+            .collect()
+    }
+
+    /// A digest of the input for the recording's id.
+    pub fn digest(&self) -> String {
+        match self {
+            Feed::Data { data, .. } => data.digest.chars().take(16).collect(),
+            Feed::Live { .. } => "live".into(),
+        }
+    }
+
+    /// Binds the source's columns to the shadow's actuators and watched signals, and connects
+    /// to a live machine.
+    pub fn bind(&mut self, shadow: &Shadow, args: &ShadowArgs) -> Result<(), Failure> {
+        let bind = |name: &str, unit: &str| -> Result<Binding, String> {
+            let (role, index, factor) = shadow.columns().bind_column(name, unit)?;
+            Ok(match role {
+                ColumnRole::Command => Binding::Command(index, factor),
+                ColumnRole::Measured if shadow.watched().iter().any(|w| w == name) => {
+                    Binding::Measured(name.to_string(), factor)
+                }
+                _ => Binding::Unused,
+            })
+        };
+        match self {
+            Feed::Data { data, bindings } => {
+                *bindings = (data.columns.iter())
+                    .map(|c| bind(&c.name, &c.unit).map_err(|e| format!("{}: {e}", data.source)))
+                    .collect::<Result<_, _>>()?;
+            }
+            Feed::Live {
+                map,
+                path,
+                link,
+                endpoint,
+                bindings,
+            } => {
+                let options = link_options(args)?;
+                *bindings = (map.nodes.iter())
+                    .map(|n| {
+                        bind(&n.column, &n.unit)
+                            .map_err(|e| format!("{path}: nodes.\"{}\": {e}", n.column))
+                    })
+                    .collect::<Result<_, _>>()?;
+                *link = Some(MachineLink::connect(endpoint, &map.nodes, options)?);
+            }
+        }
+        Ok(())
+    }
+
+    /// Feeds the shadow until the source ends, `--duration` is reached or a signal stops it.
+    pub fn run(
+        &mut self,
+        shadow: &mut Shadow,
+        recording: &mut ShadowRecording,
+        args: &ShadowArgs,
+        stop: &StopFlag,
+    ) -> Result<Outcome, Failure> {
+        let mut sink = Sink {
+            recording,
+            publisher: Publisher::start(args.publish.as_deref(), shadow)?,
+            outcome: Outcome::default(),
+            live: matches!(self, Feed::Live { .. }),
+        };
+        match self {
+            Feed::Data { data, bindings } => play(data, bindings, shadow, &mut sink, args, stop)?,
+            Feed::Live { link, bindings, .. } => {
+                let link = link.as_mut().ok_or("the machine link is not connected")?;
+                watch(link, bindings, shadow, &mut sink, args, stop)?;
+            }
+        }
+        let start = Instant::now();
+        let steps = shadow.flush()?;
+        sink.take(shadow, steps, start)?;
+        sink.publisher.stop();
+        Ok(sink.outcome)
+    }
+}
+
+/// The link's options from the command line: security, PKI, user and timeout.
+fn link_options(args: &ShadowArgs) -> Result<LinkOptions, Failure> {
+    let user = match &args.user {
+        Some(user) => {
+            let password = read_password(user, args.password_file.as_deref())
+                .map_err(|e| Failure::usage(e.to_string()))?;
+            Some((user.clone(), password))
+        }
+        None => None,
+    };
+    Ok(LinkOptions {
+        connect_timeout: Duration::from_secs_f64(args.connect_timeout),
+        security: args.security,
+        pki: args.pki.clone(),
+        user,
+        ..LinkOptions::default()
+    })
+}
+
+/// Marks the last gap as ended at `time` (machine seconds since the first sample).
+fn restored(sink: &mut Sink, time: f64) -> Result<(), Failure> {
+    if let Some(gap) = sink.outcome.gaps.last_mut() {
+        gap.1 = Some(time);
+    }
+    let text = "connection to the machine restored; samples again from here";
+    sink.recording.note(time, EventLevel::Info, text)?;
+    Ok(())
+}
+
+/// Where processed steps go: the recording, the published variables, the timing figures.
+struct Sink<'a> {
+    recording: &'a mut ShadowRecording,
+    publisher: Publisher,
+    outcome: Outcome,
+    live: bool,
+}
+
+impl Sink<'_> {
+    /// Records and publishes `steps`, processed since `start`.
+    fn take(
+        &mut self,
+        shadow: &Shadow,
+        steps: Vec<ShadowStep>,
+        start: Instant,
+    ) -> Result<(), Failure> {
+        if steps.is_empty() {
+            return Ok(());
+        }
+        let cost = start.elapsed().as_secs_f64() / steps.len() as f64;
+        for step in &steps {
+            self.recording.push(step)?;
+            self.publisher.publish(shadow, step)?;
+            if let Some(change) = &step.change {
+                eprintln!("t = {:.3} s: {}", step.time, describe(change).1);
+            }
+            self.outcome.costs.push(cost);
+            if self.live {
+                let source = shadow.origin().unwrap_or(0.0) + step.time;
+                self.outcome.latencies.push(now() - source);
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Seconds since the UNIX epoch now.
+fn now() -> f64 {
+    SystemTime::now()
+        .duration_since(UNIX_EPOCH)
+        .map_or(0.0, |d| d.as_secs_f64())
+}
+
+/// Whether the run should stop: a signal, or the machine's time past `--duration`.
+fn stopping(stop: &StopFlag, shadow: &Shadow, args: &ShadowArgs, outcome: &mut Outcome) -> bool {
+    let signal = stop.load(std::sync::atomic::Ordering::Relaxed);
+    if signal != 0 {
+        outcome.interrupted = Some(signal);
+        return true;
+    }
+    args.duration
+        .is_some_and(|d| shadow.newest().is_some_and(|t| t >= d))
+}
+
+/// Plays a logged run in, row by row, paced with --replay.
+fn play(
+    data: &RunData,
+    bindings: &[Binding],
+    shadow: &mut Shadow,
+    sink: &mut Sink,
+    args: &ShadowArgs,
+    stop: &StopFlag,
+) -> Result<(), Failure> {
+    let wall = Instant::now();
+    let first = data.time.first().copied().unwrap_or(0.0);
+    for (row, &time) in data.time.iter().enumerate() {
+        if args.replay {
+            let due = Duration::from_secs_f64(((time - first) / args.rate).max(0.0));
+            if let Some(wait) = due.checked_sub(wall.elapsed()) {
+                std::thread::sleep(wait);
+            }
+        }
+        for (column, binding) in data.columns.iter().zip(bindings) {
+            let value = column.values[row];
+            match binding {
+                Binding::Command(a, factor) => shadow.command(*a, time, value * factor),
+                Binding::Measured(name, factor) => shadow.measurement(name, time, value * factor),
+                Binding::Unused => {}
+            }
+        }
+        let start = Instant::now();
+        let steps = shadow.advance()?;
+        sink.take(shadow, steps, start)?;
+        if stopping(stop, shadow, args, &mut sink.outcome) {
+            break;
+        }
+    }
+    Ok(())
+}
+
+/// Watches a live machine until a signal or --duration.
+fn watch(
+    link: &mut MachineLink,
+    bindings: &[Binding],
+    shadow: &mut Shadow,
+    sink: &mut Sink,
+    args: &ShadowArgs,
+    stop: &StopFlag,
+) -> Result<(), Failure> {
+    // A gap is marked on the machine's clock: from the newest sample before the loss to the
+    // first one after the restoration.
+    let mut restoring = false;
+    while !stopping(stop, shadow, args, &mut sink.outcome) {
+        let Some(event) = link.recv(POLL) else {
+            continue;
+        };
+        match event {
+            LinkEvent::Sample {
+                node,
+                source_time,
+                value,
+            } => {
+                match bindings.get(node) {
+                    Some(Binding::Command(a, factor)) => {
+                        shadow.command(*a, source_time, value * factor)
+                    }
+                    Some(Binding::Measured(name, factor)) => {
+                        shadow.measurement(name, source_time, value * factor)
+                    }
+                    _ => {}
+                }
+                if std::mem::take(&mut restoring) {
+                    restored(sink, shadow.newest().unwrap_or(0.0))?;
+                }
+            }
+            LinkEvent::Lost { reason, .. } => {
+                let time = shadow.newest().unwrap_or(0.0);
+                sink.outcome.gaps.push((time, None));
+                let text = format!("connection to the machine lost: {reason}; reconnecting");
+                eprintln!("{text}");
+                sink.recording.note(time, EventLevel::Warning, &text)?;
+            }
+            LinkEvent::Restored { attempts, .. } => {
+                eprintln!("connection to the machine restored after {attempts} tries");
+                restoring = true;
+            }
+            LinkEvent::Refused { node, reason } => eprintln!("node {node}: {reason}"),
+        }
+        let start = Instant::now();
+        let steps = shadow.advance()?;
+        sink.take(shadow, steps, start)?;
+    }
+    Ok(())
+}

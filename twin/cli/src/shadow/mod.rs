@@ -1,0 +1,254 @@
+//! `twin shadow`: the twin beside a running machine. Fed the machine's commands and
+//! measurements (live over OPC UA with a map file, or a logged run played in), it estimates the
+//! machine's state and tracked parameters, tests the innovations, reports anomalies with the
+//! parameter that explains them, records it all and publishes it on its own OPC UA server.
+
+mod feed;
+mod publish;
+mod report;
+
+use crate::failure::Failure;
+use crate::serve::Security;
+use crate::signals::stop_on_signals;
+use feed::Feed;
+use framework::Registry;
+use std::path::PathBuf;
+use std::process::ExitCode;
+use twin::shadowing::{Shadow, ShadowOptions, ShadowRecording, TrackedParameter};
+use twin::{same_file, LiveViewer, OutputFile, Overrides, Scenario};
+
+/// `twin shadow` arguments.
+#[derive(Debug, Clone, clap::Args)]
+pub struct ShadowArgs {
+    /// A built-in scenario name or a scenario .toml file (a calibrated one, best).
+    pub scenario: String,
+    /// The machine's OPC UA server (default: the map's `endpoint`).
+    #[arg(long)]
+    pub opcua: Option<String>,
+    /// The map of the machine's nodes to the twin's columns, with their units (TOML).
+    #[arg(long, conflicts_with = "data")]
+    pub map: Option<PathBuf>,
+    /// A logged run (CSV, Parquet or a twin .rrd) played in instead of a live machine.
+    #[arg(long)]
+    pub data: Option<PathBuf>,
+    /// Play --data in at the pace it was logged (times --rate) instead of at once.
+    #[arg(long, requires = "data")]
+    pub replay: bool,
+    /// Real-time factor of --replay.
+    #[arg(long, default_value_t = 1.0, requires = "replay")]
+    pub rate: f64,
+    /// Rename a data column: OLD=NEW (names without units).
+    #[arg(long = "rename", value_name = "OLD=NEW")]
+    pub rename: Vec<String>,
+    /// The measured signals to watch (default: every one the data give that the model
+    /// predicts).
+    #[arg(long, value_delimiter = ',')]
+    pub signals: Vec<String>,
+    /// Track a parameter as a filter state: KEY or KEY=DRIFT (σ per √s, SI).
+    #[arg(long = "track", value_name = "KEY[=DRIFT]")]
+    pub track: Vec<String>,
+    /// False alarms per hour of healthy operation, all tests together.
+    #[arg(long, default_value_t = 0.1)]
+    pub false_alarms: f64,
+    /// Seconds at the start taken as healthy, to learn the innovations' statistics.
+    #[arg(long, default_value_t = 5.0)]
+    pub learn: f64,
+    /// Seconds a sample may arrive behind the newest and still be taken in order.
+    #[arg(long, default_value_t = 0.25)]
+    pub latency: f64,
+    /// A signal's measurement noise σ (SI): NAME=SIGMA.
+    #[arg(long = "noise", value_name = "NAME=SIGMA")]
+    pub noise: Vec<String>,
+    /// The model's acceleration noise, as a share of the largest acceleration an actuator
+    /// gives, per √s.
+    #[arg(long, default_value_t = twin::shadowing::DEFAULT_PROCESS_NOISE)]
+    pub process_noise: f64,
+    /// Security of the connection to the machine: none, or Basic256Sha256 sign or
+    /// sign-encrypt (with certificates; see the guide's Security section).
+    #[arg(long, value_enum, default_value_t = Security::None)]
+    pub security: Security,
+    /// The shadow's PKI folder for sign or sign-encrypt (default
+    /// `$XDG_DATA_HOME/twin/pki/shadow`, else `~/.local/share/twin/pki/shadow`).
+    #[arg(long)]
+    pub pki: Option<PathBuf>,
+    /// The user to log in to the machine's server as; the password from --password-file or
+    /// the environment variable TWIN_OPCUA_PASSWORD.
+    #[arg(long)]
+    pub user: Option<String>,
+    /// A file whose first line is the --user's password.
+    #[arg(long, requires = "user")]
+    pub password_file: Option<PathBuf>,
+    /// Seconds to wait for the machine's server to answer, at the start and at each
+    /// reconnection attempt.
+    #[arg(long, default_value_t = 5.0)]
+    pub connect_timeout: f64,
+    /// Stop after this many seconds of the machine's time (default: the data's end, or a
+    /// signal).
+    #[arg(long)]
+    pub duration: Option<f64>,
+    /// Publish the estimate, residuals and alarms on an OPC UA server here (loopback).
+    #[arg(long)]
+    pub publish: Option<String>,
+    /// Override a scenario value: a dotted key into the TOML.
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    pub set: Vec<String>,
+    /// Recording to write (default: `<scenario>-shadow.rrd`).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Also write the summary as JSON to this file.
+    #[arg(long)]
+    pub summary: Option<PathBuf>,
+    /// Also stream to a Rerun viewer at this URL.
+    #[arg(long)]
+    pub connect: Option<String>,
+}
+
+/// Runs `twin shadow` until the data end, the --duration is reached or a signal stops it.
+pub fn shadow(args: &ShadowArgs, registry: &Registry) -> Result<ExitCode, Failure> {
+    check_numbers(args)?;
+    let overrides = Overrides {
+        controller: None,
+        duration: None,
+        set: args.set.clone(),
+    };
+    let builder = Scenario::open(&args.scenario)?.overrides(&overrides)?;
+    let mut feed = Feed::open(args)?;
+    let signals = if args.signals.is_empty() {
+        default_signals(&builder, &feed, registry)?
+    } else {
+        args.signals.clone()
+    };
+    let options = ShadowOptions {
+        signals,
+        parameters: args
+            .track
+            .iter()
+            .map(|t| tracked(t))
+            .collect::<Result<_, _>>()?,
+        false_alarms_per_hour: args.false_alarms,
+        learn: args.learn,
+        latency: args.latency,
+        noise: noise(&args.noise)?,
+        process_noise: args.process_noise,
+    };
+    let mut shadow = Shadow::new(builder.build(registry)?, &options)?;
+    feed.bind(&shadow, args)?;
+    let out = args
+        .out
+        .clone()
+        .unwrap_or_else(|| PathBuf::from(format!("{}-shadow.rrd", shadow.scenario_name())));
+    if let Some(path) = args.summary.as_deref().filter(|p| same_file(p, &out)) {
+        return Err(Failure::usage(format!(
+            "--summary {} is the recording's path too; give them different files",
+            path.display()
+        )));
+    }
+    let summary_file = args
+        .summary
+        .as_deref()
+        .map(OutputFile::create)
+        .transpose()?;
+    let live = args.connect.clone().map(LiveViewer::Connect);
+    let id = format!("{}-shadow-{}", shadow.scenario_name(), feed.digest());
+    let mut recording = ShadowRecording::create(&out, &shadow, &id, live)?;
+    let stop = stop_on_signals()?;
+    let outcome = feed.run(&mut shadow, &mut recording, args, &stop);
+    let outcome = match outcome {
+        Ok(outcome) => outcome,
+        Err(failure) => {
+            // The recording keeps what was processed before the failure.
+            let _ = recording.finish(&failure.message);
+            return Err(failure);
+        }
+    };
+    report::finish(&shadow, recording, &outcome, &out, summary_file)
+}
+
+/// The signals watched without --signals: those the source gives, the model predicts and the
+/// scenario gives a sensor (whose noise the filter then knows).
+fn default_signals(
+    builder: &twin::ScenarioBuilder,
+    feed: &Feed,
+    registry: &Registry,
+) -> Result<Vec<String>, Failure> {
+    let loaded = builder.clone().build(registry)?;
+    let sensed: Vec<String> = loaded.scenario.sensors.keys().cloned().collect();
+    let given = feed.measured_columns(&Shadow::watchable(loaded)?);
+    let chosen: Vec<String> = given
+        .iter()
+        .filter(|s| sensed.contains(s))
+        .cloned()
+        .collect();
+    if chosen.is_empty() {
+        return Err(Failure::usage(format!(
+            "no signal to watch by default (those the machine gives and the model predicts with a \
+             sensor in the scenario); give --signals, e.g. from: {}",
+            given.join(", ")
+        )));
+    }
+    Ok(chosen)
+}
+
+/// Refuses numbers out of range.
+fn check_numbers(args: &ShadowArgs) -> Result<(), Failure> {
+    if !(args.rate.is_finite() && args.rate > 0.0) {
+        return Err(Failure::usage(format!(
+            "--rate {}: must be a positive number",
+            args.rate
+        )));
+    }
+    if let Some(duration) = args.duration.filter(|d| !(d.is_finite() && *d > 0.0)) {
+        return Err(Failure::usage(format!(
+            "--duration {duration}: must be a positive number of seconds"
+        )));
+    }
+    if !(args.connect_timeout.is_finite() && args.connect_timeout > 0.0) {
+        return Err(Failure::usage(format!(
+            "--connect-timeout {}: must be a positive number of seconds",
+            args.connect_timeout
+        )));
+    }
+    if args.data.is_none() && args.map.is_none() {
+        return Err(Failure::usage(
+            "give the machine: --map MAP.toml (live, over OPC UA) or --data RUN (a logged run)",
+        ));
+    }
+    Ok(())
+}
+
+/// `--track KEY[=DRIFT]`.
+fn tracked(text: &str) -> Result<TrackedParameter, Failure> {
+    let (key, drift) = match text.split_once('=') {
+        Some((key, drift)) => {
+            let value: f64 = drift.trim().parse().map_err(|_| {
+                Failure::usage(format!(
+                    "--track {text}: DRIFT must be a number (σ per √s, SI)"
+                ))
+            })?;
+            if !(value.is_finite() && value > 0.0) {
+                return Err(Failure::usage(format!(
+                    "--track {text}: DRIFT must be a positive number"
+                )));
+            }
+            (key.trim(), Some(value))
+        }
+        None => (text.trim(), None),
+    };
+    Ok(TrackedParameter {
+        key: key.to_string(),
+        drift,
+    })
+}
+
+/// `--noise NAME=SIGMA` entries.
+fn noise(entries: &[String]) -> Result<Vec<(String, f64)>, Failure> {
+    entries
+        .iter()
+        .map(|entry| {
+            let refuse = || Failure::usage(format!("--noise {entry}: give NAME=SIGMA (SI)"));
+            let (name, sigma) = entry.split_once('=').ok_or_else(refuse)?;
+            let sigma: f64 = sigma.trim().parse().map_err(|_| refuse())?;
+            Ok((name.trim().to_string(), sigma))
+        })
+        .collect()
+}

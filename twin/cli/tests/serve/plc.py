@@ -1,0 +1,64 @@
+"""A PLC closing a loop around `twin serve --lockstep`, on Python asyncua: a PD law on one joint.
+
+Usage: plc.py URL MACHINE JOINT KP KD RATE PERIODS OUT.json. At each of PERIODS control updates
+it reads the time, JOINT.position x and JOINT.velocity v, computes the effort
+
+    u = KP·(r − x) + KD·(ṙ − v),   r(t) = RATE·t, ṙ = RATE   (a ramp: the joint at RATE)
+
+writes it to effort.JOINT and advances one control period (the command acts from the next
+update: one period of delay). Writes the history to OUT.json: per update, the time, the
+tracking error r − x and the effort written.
+"""
+
+import asyncio
+import json
+import sys
+
+from asyncua import Client, ua
+
+
+async def connect(url):
+    for _ in range(400):
+        client = Client(url=url, timeout=10)
+        try:
+            await client.connect()
+            return client
+        except (OSError, asyncio.TimeoutError):
+            await asyncio.sleep(0.05)
+    raise SystemExit(f"no OPC UA server at {url}")
+
+
+async def main(url, machine_name, joint, kp, kd, rate, periods, out):
+    client = await connect(url)
+    history = {"time": [], "error": [], "effort": []}
+    try:
+        ns = await client.get_namespace_index(f"urn:twin:{machine_name}")
+        machine = await client.nodes.objects.get_child(f"{ns}:{machine_name}")
+        measured = [
+            client.get_node(ua.NodeId(name, ns))
+            for name in ("status.time", f"{joint}.position", f"{joint}.velocity")
+        ]
+        effort = client.get_node(ua.NodeId(f"effort.{joint}", ns))
+        advance = ua.QualifiedName("Advance", ns)
+        for _ in range(periods):
+            time, x, v = await client.read_values(measured)
+            error = rate * time - x
+            u = kp * error + kd * (rate - v)
+            await effort.write_value(ua.DataValue(ua.Variant(u, ua.VariantType.Double)))
+            await machine.call_method(advance, ua.Variant(1, ua.VariantType.UInt32))
+            history["time"].append(time)
+            history["error"].append(error)
+            history["effort"].append(u)
+    finally:
+        try:
+            await client.disconnect()
+        except Exception:  # the server may already be gone at the run's end
+            pass
+    with open(out, "w", encoding="utf-8") as file:
+        json.dump(history, file)
+
+
+if __name__ == "__main__":
+    url, machine_name, joint, kp, kd, rate, periods, out = sys.argv[1:]
+    args = (float(kp), float(kd), float(rate), int(periods), out)
+    asyncio.run(main(url, machine_name, joint, *args))

@@ -1,0 +1,129 @@
+//! The shadow's intake: samples held in source-time order until they are `latency` behind the
+//! newest, late ones and repeats counted and dropped.
+
+use super::IntakeCounts;
+use std::collections::BTreeMap;
+
+/// What a sample is of.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
+pub(super) enum SampleKind {
+    /// An actuator's command (index into the actuators).
+    Command(usize),
+    /// A watched signal's measurement (index into the watched signals).
+    Measurement(usize),
+}
+
+/// One sample: what, when (s since the first sample), the value in SI.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(super) struct Sample {
+    pub kind: SampleKind,
+    pub time: f64,
+    pub value: f64,
+}
+
+/// Samples by (time, kind), waiting.
+#[derive(Debug, Default)]
+pub(super) struct Intake {
+    waiting: BTreeMap<(u64, SampleKind), f64>,
+    /// Time up to which samples have been released.
+    released: f64,
+    newest: f64,
+    /// Per stream (a command or a signal), its newest time.
+    streams: BTreeMap<SampleKind, f64>,
+    pub counts: IntakeCounts,
+}
+
+/// A stream silent for this long behind the newest sample no longer holds the others back, s.
+const STALLED: f64 = 1.0;
+
+/// A key that orders times as numbers (times here are finite and ≥ 0).
+fn key(time: f64) -> u64 {
+    time.max(0.0).to_bits()
+}
+
+impl Intake {
+    /// Takes a sample; drops it if it is late or repeats one.
+    pub fn push(&mut self, sample: Sample) {
+        if sample.time < self.released {
+            self.counts.late += 1;
+            return;
+        }
+        if sample.time < self.newest {
+            self.counts.reordered += 1;
+        }
+        self.newest = self.newest.max(sample.time);
+        let stream = self.streams.entry(sample.kind).or_insert(sample.time);
+        *stream = stream.max(sample.time);
+        let slot = (key(sample.time), sample.kind);
+        if self.waiting.insert(slot, sample.value).is_some() {
+            self.counts.duplicate += 1;
+        }
+    }
+
+    /// The newest source time seen.
+    pub fn newest(&self) -> f64 {
+        self.newest
+    }
+
+    /// How far every live stream has come: the oldest of the streams' newest times, among the
+    /// streams heard from within [`STALLED`] of the newest (a stream that stopped does not hold
+    /// the others back). Samples arrive in batches per stream; a shadow that waits for the
+    /// slowest live one takes them all in order however late the batches come.
+    pub fn watermark(&self) -> f64 {
+        self.streams
+            .values()
+            .copied()
+            .filter(|&t| t >= self.newest - STALLED)
+            .fold(self.newest, f64::min)
+    }
+
+    /// Releases the samples up to `until` in time order (those at one time together, commands
+    /// first).
+    pub fn release(&mut self, until: f64) -> Vec<Sample> {
+        let rest = self
+            .waiting
+            .split_off(&(key(until), SampleKind::Measurement(usize::MAX)));
+        let ready = std::mem::replace(&mut self.waiting, rest);
+        self.released = self.released.max(until);
+        self.counts.processed += ready.len() as u64;
+        ready
+            .into_iter()
+            .map(|((bits, kind), value)| Sample {
+                kind,
+                time: f64::from_bits(bits),
+                value,
+            })
+            .collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn samples_come_out_in_time_order_and_late_and_repeated_ones_are_dropped() {
+        let mut intake = Intake::default();
+        let at = |time: f64, s: usize| Sample {
+            kind: SampleKind::Measurement(s),
+            time,
+            value: time,
+        };
+        for sample in [at(0.02, 0), at(0.01, 0), at(0.02, 0), at(0.03, 1)] {
+            intake.push(sample);
+        }
+        let out = intake.release(0.025);
+        assert_eq!(out.iter().map(|s| s.time).collect::<Vec<_>>(), [0.01, 0.02]);
+        intake.push(at(0.015, 0));
+        assert_eq!(
+            intake.counts,
+            IntakeCounts {
+                processed: 2,
+                late: 1,
+                duplicate: 1,
+                reordered: 1,
+            }
+        );
+        assert_eq!(intake.release(1.0).len(), 1);
+    }
+}

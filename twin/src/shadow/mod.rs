@@ -1,0 +1,457 @@
+//! The twin beside a running machine: fed the machine's commands and measurements as they
+//! arrive (late, irregular, out of order, duplicated), it keeps an estimate of the machine's
+//! state and of the parameters it tracks with an extended Kalman filter on its own model
+//! ([`filter`]), tests the normalised innovations for anomalies ([`detector`]) and names the
+//! parameter that explains one.
+//!
+//! Samples carry their source timestamps. They wait in an intake for `latency` seconds behind
+//! the newest one, so that those arriving out of order within it are processed in time order;
+//! one older than what has been processed is counted late and dropped, and a repeated one
+//! (same signal, same time) is counted and dropped.
+
+mod detector;
+mod filter;
+mod intake;
+mod model;
+mod options;
+mod record;
+
+pub use detector::{AnomalyChange, DetectorView};
+pub use filter::Innovation;
+pub use options::{ShadowOptions, TrackedParameter, DEFAULT_PROCESS_NOISE};
+pub use record::{describe, ShadowRecording};
+
+use crate::run::{LinearizeError, Twin, TwinError};
+use crate::run_data::PlantColumns;
+use crate::scenario::LoadedScenario;
+use detector::Detector;
+use filter::Filter;
+use intake::{Intake, Sample, SampleKind};
+use thiserror::Error;
+
+/// Longest span between two samples the model is propagated over, s; after a longer one the
+/// state is taken up afresh from the next samples.
+pub const MAX_GAP: f64 = 1.0;
+
+/// Why a shadow cannot start or go on.
+#[derive(Debug, Error)]
+pub enum ShadowError {
+    /// The scenario cannot be built into a model.
+    #[error(transparent)]
+    Twin(#[from] TwinError),
+    /// The scenario's machine has no model a filter can use.
+    #[error(transparent)]
+    Model(#[from] LinearizeError),
+    /// An option names what the scenario lacks, or has a value out of range.
+    #[error("{0}")]
+    Option(String),
+    /// The model failed at a time (its loops would not close): the estimate is lost.
+    #[error("the shadow's model failed at t = {time:.6} s: {reason}")]
+    Diverged {
+        /// Time since the first sample, s.
+        time: f64,
+        /// What failed.
+        reason: String,
+    },
+    /// The recording could not be written.
+    #[error(transparent)]
+    Recording(#[from] crate::recording::RecordingError),
+}
+
+/// A stretch of time in which the machine stopped behaving like its model.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct Anomaly {
+    /// The signals whose tests alarmed (and the parameters that drifted).
+    pub signals: Vec<String>,
+    /// Where the tests place its start, s since the first sample.
+    pub start: f64,
+    /// When it was detected, s since the first sample.
+    pub detected: f64,
+    /// When every test was released again; `None` while it lasts.
+    pub end: Option<f64>,
+    /// The largest standardised shift of a signal's innovation during it, in standard
+    /// deviations of a healthy block mean.
+    pub size: f64,
+    /// The parameter that explains it, if one moved significantly.
+    pub attribution: Option<Attribution>,
+}
+
+/// A tracked parameter named as the cause of an anomaly.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct Attribution {
+    /// Its scenario key.
+    pub parameter: String,
+    /// Its estimate at the anomaly's start, SI.
+    pub before: f64,
+    /// Its estimate now (or at the anomaly's end), SI.
+    pub estimate: f64,
+    /// The estimate's 95 % interval.
+    pub interval: [f64; 2],
+    /// How far it moved, in its standard deviations.
+    pub shift_sigmas: f64,
+}
+
+/// What one processed measurement time gives.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ShadowStep {
+    /// Source time, s since the first sample.
+    pub time: f64,
+    /// The signals measured now (indices into [`Shadow::watched`]) and their values, SI.
+    pub measured: Vec<(usize, f64)>,
+    /// The innovations of those signals.
+    pub innovation: Innovation,
+    /// Every watched signal as the corrected estimate gives it, SI.
+    pub estimate: Vec<f64>,
+    /// Each tracked parameter's estimate and standard deviation.
+    pub parameters: Vec<(f64, f64)>,
+    /// The detector's statistics.
+    pub detector: DetectorView,
+    /// Whether the detector is still learning the healthy statistics.
+    pub learning: bool,
+    /// An anomaly opened or closed now.
+    pub change: Option<AnomalyChange>,
+}
+
+/// Counts of what the intake did with the samples.
+#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize)]
+pub struct IntakeCounts {
+    /// Samples processed.
+    pub processed: u64,
+    /// Samples older than what had been processed: dropped.
+    pub late: u64,
+    /// Samples repeating one already taken (same signal and time): dropped.
+    pub duplicate: u64,
+    /// Samples taken out of their arrival order.
+    pub reordered: u64,
+}
+
+/// A twin watching a machine.
+pub struct Shadow {
+    filter: Filter,
+    detector: Detector,
+    intake: Intake,
+    columns: PlantColumns,
+    watched: Vec<String>,
+    parameters: Vec<String>,
+    /// Per actuator, the command in force.
+    commands: Vec<f64>,
+    /// The filter's time, s since the first sample.
+    time: f64,
+    /// The first sample's source time, s.
+    origin: Option<f64>,
+    /// Seconds the intake holds samples behind the newest.
+    latency: f64,
+    scenario_name: String,
+    /// Spans longer than [`MAX_GAP`] without a sample.
+    gaps: u64,
+}
+
+impl Shadow {
+    /// A shadow of `loaded`'s machine, at its initial state, watching `options.signals`.
+    pub fn new(loaded: LoadedScenario, options: &ShadowOptions) -> Result<Self, ShadowError> {
+        options.check()?;
+        let parts = Twin::new(loaded)?.model_parts()?;
+        let columns = PlantColumns::of_layout(&parts.layout);
+        let watched = watched_signals(&parts.layout.signals, &options.signals)?;
+        let scenario = parts.scenario.clone();
+        let names: Vec<String> = options.signals.clone();
+        let mut model = model::Model::new(parts, watched);
+        check_predicted(&mut model, &names)?;
+        let knobs = options
+            .parameters
+            .iter()
+            .map(|p| options::knob(&model, &p.key))
+            .collect::<Result<Vec<_>, _>>()?;
+        let noise = options::noise(options, &scenario, &names)?;
+        let defaults = default_drifts(&knobs, &noise, &model);
+        let (drift, knob_sigmas) = options::drifts(options, &defaults);
+        let acceleration = acceleration_noise(&mut model, options.process_noise)?;
+        let tuning = options::tuning(acceleration, drift, knob_sigmas, noise);
+        let filter = Filter::new(model, knobs, tuning);
+        let parameters: Vec<String> = options.parameters.iter().map(|p| p.key.clone()).collect();
+        let detector = Detector::new(detector::DetectorSetup {
+            signals: names.clone(),
+            knobs: parameters.clone(),
+            false_alarms_per_hour: options.false_alarms_per_hour,
+            learn: options.learn,
+        });
+        Ok(Self {
+            commands: vec![0.0; columns.actuators.len()],
+            filter,
+            detector,
+            intake: Intake::default(),
+            columns,
+            watched: names,
+            parameters,
+            time: 0.0,
+            origin: None,
+            latency: options.latency,
+            scenario_name: scenario.name.clone(),
+            gaps: 0,
+        })
+    }
+
+    /// The plant signals of `loaded` a shadow can watch: those its model predicts from the
+    /// mechanism's state (joint positions and velocities, the machine's task-space signals),
+    /// not those that need the machine's history or a controller's reference.
+    pub fn watchable(loaded: LoadedScenario) -> Result<Vec<String>, ShadowError> {
+        let parts = Twin::new(loaded)?.model_parts()?;
+        let signals = parts.layout.signals.clone();
+        let all: Vec<usize> = (0..signals.len()).collect();
+        let mut model = model::Model::new(parts, all);
+        let mut values = vec![0.0; signals.len()];
+        let x0 = model.x0.clone();
+        model
+            .measure(&x0, 0.0, &mut values)
+            .map_err(|e| model::diverged(0.0, e))?;
+        let reference = model.layout.reference_range();
+        Ok(signals
+            .into_iter()
+            .zip(values)
+            .enumerate()
+            .filter(|(i, (_, value))| value.is_finite() && !reference.contains(i))
+            .map(|(_, (name, _))| name)
+            .collect())
+    }
+
+    /// The plant's actuators and signals, with their SI units (what samples are bound to).
+    pub fn columns(&self) -> &PlantColumns {
+        &self.columns
+    }
+
+    /// The watched signals, in the order of [`ShadowStep`]'s lists.
+    pub fn watched(&self) -> &[String] {
+        &self.watched
+    }
+
+    /// The tracked parameters' keys.
+    pub fn parameters(&self) -> &[String] {
+        &self.parameters
+    }
+
+    /// The display unit of each watched signal.
+    pub fn watched_units(&self) -> Vec<framework::Unit> {
+        let model = &self.filter.model;
+        (model.watched.iter())
+            .map(|&i| model.layout.specs.signals[i].unit)
+            .collect()
+    }
+
+    /// The scenario's name.
+    pub fn scenario_name(&self) -> &str {
+        &self.scenario_name
+    }
+
+    /// Seconds since the first sample of source time `source` (s), the first setting the origin.
+    fn since_origin(&mut self, source: f64) -> f64 {
+        source - *self.origin.get_or_insert(source)
+    }
+
+    /// Takes actuator `actuator`'s command `value` (SI) at source time `time` (s).
+    pub fn command(&mut self, actuator: usize, time: f64, value: f64) {
+        if actuator < self.commands.len() && value.is_finite() && time.is_finite() {
+            let time = self.since_origin(time);
+            self.intake.push(Sample {
+                kind: SampleKind::Command(actuator),
+                time,
+                value,
+            });
+        }
+    }
+
+    /// Takes plant signal `signal`'s measurement `value` (SI) at source time `time` (s); a
+    /// signal not watched is ignored.
+    pub fn measurement(&mut self, signal: &str, time: f64, value: f64) {
+        let Some(watched) = self.watched.iter().position(|s| s == signal) else {
+            return;
+        };
+        if value.is_finite() && time.is_finite() {
+            let time = self.since_origin(time);
+            self.intake.push(Sample {
+                kind: SampleKind::Measurement(watched),
+                time,
+                value,
+            });
+        }
+    }
+
+    /// The first sample's source time (s), once one has come.
+    pub fn origin(&self) -> Option<f64> {
+        self.origin
+    }
+
+    /// The newest sample's time, s since the first.
+    pub fn newest(&self) -> Option<f64> {
+        self.origin.map(|_| self.intake.newest())
+    }
+
+    /// How many spans longer than [`MAX_GAP`] had no sample (the state was taken up afresh).
+    pub fn gaps(&self) -> u64 {
+        self.gaps
+    }
+
+    /// What the intake did so far.
+    pub fn counts(&self) -> IntakeCounts {
+        self.intake.counts
+    }
+
+    /// Processes the samples that are `latency` behind the newest.
+    pub fn advance(&mut self) -> Result<Vec<ShadowStep>, ShadowError> {
+        let until = self.intake.watermark() - self.latency;
+        self.process(until)
+    }
+
+    /// Processes every sample taken (at the end of a run).
+    pub fn flush(&mut self) -> Result<Vec<ShadowStep>, ShadowError> {
+        self.process(f64::INFINITY)
+    }
+
+    /// The anomalies found so far: those closed, then the one still open.
+    pub fn anomalies(&self) -> Vec<Anomaly> {
+        let mut all = self.detector.closed.clone();
+        all.extend(self.detector.open().cloned());
+        all
+    }
+
+    /// The thresholds in use (CUSUM h, NIS window and drift, in standard deviations), once
+    /// learnt.
+    pub fn thresholds(&self) -> Option<[f64; 3]> {
+        (!self.detector.learning()).then(|| self.detector.thresholds())
+    }
+
+    /// Each tracked parameter's estimate and standard deviation now.
+    pub fn estimates(&self) -> Vec<(f64, f64)> {
+        (0..self.parameters.len())
+            .map(|j| self.filter.knob_estimate(j))
+            .collect()
+    }
+}
+
+impl Shadow {
+    /// Processes the samples up to `until` (s since the first sample).
+    fn process(&mut self, until: f64) -> Result<Vec<ShadowStep>, ShadowError> {
+        let samples = self.intake.release(until);
+        let mut steps = Vec::new();
+        let mut next = 0;
+        while let Some(first) = samples.get(next) {
+            let time = first.time;
+            if time - self.time > MAX_GAP {
+                // Nothing came for a while (a lost connection): the state is anyone's guess,
+                // the parameters are not; the next samples set the state again.
+                self.filter.loosen();
+                self.detector.resume_after_gap(time);
+                self.gaps += 1;
+            } else if time > self.time {
+                self.filter
+                    .predict(&self.commands, self.time, time - self.time)?;
+            }
+            self.time = self.time.max(time);
+            let mut observed = Vec::new();
+            while let Some(sample) = samples.get(next).filter(|s| s.time == time) {
+                match sample.kind {
+                    SampleKind::Command(a) => self.commands[a] = sample.value,
+                    SampleKind::Measurement(w) => observed.push((w, sample.value)),
+                }
+                next += 1;
+            }
+            if !observed.is_empty() {
+                steps.push(self.correct(time, observed)?);
+            }
+        }
+        Ok(steps)
+    }
+
+    /// The filter's update with the values measured at `time`, and the detector's tests.
+    fn correct(
+        &mut self,
+        time: f64,
+        observed: Vec<(usize, f64)>,
+    ) -> Result<ShadowStep, ShadowError> {
+        let innovation = self.filter.update(time, &observed)?;
+        let z: Vec<(usize, f64)> = (innovation.signals.iter())
+            .zip(innovation.residual.iter().zip(&innovation.variance))
+            .map(|(&s, (r, v))| (s, r / v.sqrt()))
+            .collect();
+        let nis_per_dof = innovation.nis / z.len().max(1) as f64;
+        let parameters = self.estimates();
+        let change = self.detector.observe(time, &z, nis_per_dof, &parameters);
+        Ok(ShadowStep {
+            time,
+            estimate: self.filter.estimate(time)?,
+            measured: observed,
+            innovation,
+            parameters,
+            detector: self.detector.view.clone(),
+            learning: self.detector.learning(),
+            change,
+        })
+    }
+}
+
+/// The plant-signal index of each watched signal, or the one line naming an unknown one.
+fn watched_signals(signals: &[String], names: &[String]) -> Result<Vec<usize>, ShadowError> {
+    names
+        .iter()
+        .map(|name| {
+            signals.iter().position(|s| s == name).ok_or_else(|| {
+                ShadowError::Option(format!(
+                    "signal `{name}`: the scenario's plant has no such signal (known: {})",
+                    signals.join(", ")
+                ))
+            })
+        })
+        .collect()
+}
+
+/// Share of its value a parameter may drift by per √s.
+const DRIFT_SHARE: f64 = 0.02;
+/// A bias may grow by this many noise σ per √s (a slipped encoder is many σ within seconds).
+const BIAS_DRIFT: f64 = 3.0;
+
+/// Each knob's default drift per √s: [`DRIFT_SHARE`] of a mass, of a friction or damping or a
+/// tenth of the joint's effort limit (10 without one), whichever is larger, and [`BIAS_DRIFT`]
+/// noise σ for a bias.
+fn default_drifts(knobs: &[model::Knob], noise: &[f64], model: &model::Model) -> Vec<f64> {
+    let effort = |joint: usize| {
+        let limit = model.mechanism.joints[joint].effort_limit;
+        0.1 * limit.filter(|l| l.is_finite()).unwrap_or(100.0)
+    };
+    knobs
+        .iter()
+        .map(|knob| match knob {
+            model::Knob::LinkMass { nominal, .. } => DRIFT_SHARE * nominal.mass,
+            model::Knob::JointDamping { joint } | model::Knob::JointFriction { joint } => {
+                DRIFT_SHARE * model.knob(knob).abs().max(effort(*joint))
+            }
+            model::Knob::SensorBias { watched } => BIAS_DRIFT * noise[*watched].sqrt(),
+        })
+        .collect()
+}
+
+/// The acceleration noise density per coordinate: (`share` × the largest acceleration one
+/// actuator at its effort limit gives that coordinate)² per second.
+fn acceleration_noise(model: &mut model::Model, share: f64) -> Result<Vec<f64>, ShadowError> {
+    let scales = model
+        .acceleration_scales()
+        .map_err(|e| model::diverged(0.0, e))?;
+    Ok(scales
+        .iter()
+        .map(|a| (share * if *a > 0.0 { *a } else { 1.0 }).powi(2))
+        .collect())
+}
+
+/// Refuses a watched signal the model cannot predict (not finite at the initial state).
+fn check_predicted(model: &mut model::Model, names: &[String]) -> Result<(), ShadowError> {
+    let mut values = vec![0.0; names.len()];
+    let x0 = model.x0.clone();
+    model
+        .measure(&x0, 0.0, &mut values)
+        .map_err(|e| model::diverged(0.0, e))?;
+    match names.iter().zip(&values).find(|(_, v)| !v.is_finite()) {
+        Some((name, _)) => Err(ShadowError::Option(format!(
+            "signal `{name}`: the model cannot predict it from the mechanism's state; watch \
+             another signal"
+        ))),
+        None => Ok(()),
+    }
+}
