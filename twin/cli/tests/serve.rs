@@ -25,6 +25,16 @@ fn ended(mut server: Child) -> std::process::Output {
     server.wait_with_output().unwrap()
 }
 
+/// The Python client (tests/serve/client.py) writing `command` to `joint`'s actuator of
+/// `machine` for PERIODS periods, run to its end.
+fn drive(url: &str, machine: &str, joint: &str, command: &str) -> std::process::Output {
+    finished(
+        Command::new(tools_python())
+            .arg(Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/serve/client.py"))
+            .args([url, machine, joint, command, &PERIODS.to_string()]),
+    )
+}
+
 fn serve(args: &[&str], dir: &Path) -> Child {
     Command::new(env!("CARGO_BIN_EXE_twin"))
         .arg("serve")
@@ -39,22 +49,73 @@ fn serve(args: &[&str], dir: &Path) -> Child {
 /// The crank angle after one period at zero (the command written while the run waits at a
 /// control update takes effect at the next) and PERIODS − 1 at TORQUE, by the twin's step API.
 fn open_loop_position() -> f64 {
-    let loaded = Scenario::builtin("whitworth-crank-pi")
+    open_loop("whitworth-crank-pi", "crank", TORQUE)
+}
+
+/// `joint`'s position after one period at zero command and PERIODS − 1 at `command` on its
+/// actuator (the others at zero), by the twin's step API.
+fn open_loop(scenario: &str, joint: &str, command: f64) -> f64 {
+    let loaded = Scenario::builtin(scenario)
         .unwrap()
         .duration(DURATION)
         .build(&controllers::builtin())
         .unwrap();
     let mut simulator = Simulator::new(loaded).unwrap();
-    let index = simulator
-        .signal_specs()
-        .iter()
-        .position(|s| s.name == "crank.position")
+    let position = format!("{joint}.position");
+    let index = (simulator.signal_specs().iter())
+        .position(|s| s.name == position)
         .unwrap();
-    let mut measured = simulator.step(&[0.0]).unwrap().to_vec();
+    let actuator = (simulator.actuators().iter())
+        .position(|a| a.joint == joint)
+        .unwrap();
+    let mut commands = vec![0.0; simulator.actuators().len()];
+    let mut measured = simulator.step(&commands).unwrap().to_vec();
+    commands[actuator] = command;
     for _ in 1..PERIODS {
-        measured = simulator.step(&[TORQUE]).unwrap().to_vec();
+        measured = simulator.step(&commands).unwrap().to_vec();
     }
     measured[index]
+}
+
+/// The arm (three current-driven joints) and the feed axis (a linear motor) served in lockstep:
+/// a Python client's command on one actuator moves it as the twin's own step API does.
+#[test]
+fn a_python_client_drives_the_arm_and_the_feed_axis_in_lockstep() {
+    let cases = [
+        ("arm-milling", "arm", "shoulder", 5.0),
+        ("feed-axis-micromilling", "feed_axis", "table", 2.0),
+    ];
+    for (scenario, machine, joint, command) in cases {
+        let dir = scratch("serve", scenario);
+        let url = format!("opc.tcp://127.0.0.1:{}", free_port());
+        let duration = DURATION.to_string();
+        let args = [
+            scenario,
+            "--lockstep",
+            "--opcua",
+            &url,
+            "--duration",
+            &duration,
+        ];
+        let server = serve(&args, &dir);
+        let client = drive(&url, machine, joint, &command.to_string());
+        let served = ended(server);
+        let stderr = String::from_utf8_lossy(&served.stderr);
+        assert!(
+            client.status.success() && served.status.success(),
+            "{scenario}: client: {}\nserver: {stderr}",
+            String::from_utf8_lossy(&client.stderr)
+        );
+        let seen: serde_json::Value = serde_json::from_slice(&client.stdout).unwrap();
+        let after = seen["position_after"].as_f64().unwrap();
+        let expected = open_loop(scenario, joint, command);
+        assert!(
+            (after - expected).abs() <= 1e-9 * expected.abs().max(1e-3),
+            "{scenario}: served {after}, open loop {expected}"
+        );
+        assert!(after != seen["position_before"].as_f64().unwrap(), "{seen}");
+        assert_eq!(seen["state"], "finished", "{seen}");
+    }
 }
 
 #[test]
@@ -75,17 +136,7 @@ fn a_python_client_drives_the_crank_in_lockstep() {
         "summary.json",
     ];
     let server = serve(&args, &dir);
-    let client = finished(
-        Command::new(tools_python())
-            .arg(Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/serve/client.py"))
-            .args([
-                &url,
-                "whitworth",
-                "crank",
-                &TORQUE.to_string(),
-                &PERIODS.to_string(),
-            ]),
-    );
+    let client = drive(&url, "whitworth", "crank", &TORQUE.to_string());
     let served = ended(server);
     let stderr = String::from_utf8_lossy(&served.stderr);
     assert!(

@@ -4,6 +4,7 @@
 //! its setpoint offsets), the run's status and the `Advance` method.
 
 use super::shared::{AdvanceRefusal, Shared};
+use super::units::add_engineering_units;
 use opcua::server::address_space::{AddressSpace, MethodBuilder, ObjectBuilder, VariableBuilder};
 use opcua::server::node_manager::memory::SimpleNodeManager;
 use opcua::types::{
@@ -17,7 +18,7 @@ use twin::SignalLayout;
 const ADVANCE_TIMEOUT: Duration = Duration::from_secs(30);
 
 /// The status variables, by their names under `status.`.
-pub const STATUS: [(&str, DataTypeId, &str); 5] = [
+pub const STATUS: [(&str, DataTypeId, &str); 6] = [
     ("time", DataTypeId::Double, "simulated time, s"),
     ("step", DataTypeId::UInt64, "physics step index"),
     (
@@ -34,6 +35,11 @@ pub const STATUS: [(&str, DataTypeId, &str); 5] = [
         "deadline_misses",
         DataTypeId::UInt64,
         "control updates reached after their wall-clock deadline",
+    ),
+    (
+        "last_event",
+        DataTypeId::String,
+        "the run's last event, one line (a fault's onset, a deadline miss, the run's end)",
     ),
 ];
 
@@ -153,6 +159,7 @@ fn add_signals(
             .value(0.0)
             .organized_by(folder.clone())
             .insert(space);
+            add_engineering_units(space, &node, name, spec.unit.si_label());
             node
         })
         .collect()
@@ -196,6 +203,7 @@ fn add_commands(
             }
         };
         builder.insert(space);
+        add_engineering_units(space, &node, &name, units[0].si_label());
     }
     published
 }

@@ -11,6 +11,7 @@ mod publisher;
 pub(crate) mod security;
 mod server;
 mod shared;
+pub(crate) mod units;
 
 pub use error::ServeError;
 pub use security::{Security, SecurityError, PASSWORD_ENV};

@@ -30,6 +30,8 @@ pub struct Publisher {
     published: Option<Published>,
     /// Control updates reached so far.
     updates: u64,
+    /// The text of the run's last event, published as `status.last_event`.
+    last_event: String,
 }
 
 impl Publisher {
@@ -51,6 +53,7 @@ impl Publisher {
             commanding,
             published: None,
             updates: 0,
+            last_event: String::new(),
         }
     }
 
@@ -80,7 +83,10 @@ impl Publisher {
         self.server
     }
 
-    fn publish(&self, view: &StepView) -> Result<(), ObserverError> {
+    fn publish(&mut self, view: &StepView) -> Result<(), ObserverError> {
+        if let Some(event) = view.events.last() {
+            self.last_event.clone_from(&event.text);
+        }
         let Some(published) = &self.published else {
             return Ok(());
         };
@@ -90,6 +96,7 @@ impl Publisher {
             Variant::UInt64(self.updates),
             Variant::from("running"),
             Variant::UInt64(self.deadline_misses()),
+            Variant::from(self.last_event.as_str()),
         ];
         let nodes = &published.nodes;
         let signals = (nodes.signals.iter()).zip(view.measured.iter().map(|v| Variant::Double(*v)));

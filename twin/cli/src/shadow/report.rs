@@ -2,7 +2,7 @@
 //! stdout, in the recording and as JSON.
 
 use super::feed::Outcome;
-use crate::failure::{Failure, EXIT_ERROR};
+use crate::failure::Failure;
 use serde_json::json;
 use std::path::Path;
 use std::process::ExitCode;
@@ -110,8 +110,12 @@ pub fn finish(
         let bytes = serde_json::to_vec_pretty(&summary_json(shadow, outcome))?;
         file.commit(&bytes)?;
     }
+    // As `twin run` ends on a signal: 128 + its number, the files complete.
     Ok(match outcome.interrupted {
-        Some(_) => ExitCode::from(EXIT_ERROR),
+        Some(signal) => {
+            eprintln!("stopped by signal {signal}: recording and summary are complete up to there");
+            ExitCode::from(128 + signal.min(127) as u8)
+        }
         None => ExitCode::SUCCESS,
     })
 }
