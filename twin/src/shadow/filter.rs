@@ -211,6 +211,7 @@ impl Filter {
         for (value, dx) in self.x.iter_mut().zip(correction.iter()) {
             *value += dx;
         }
+        self.project();
         let keep = DMatrix::identity(n, n) - &gain * &h;
         self.p = &keep * &self.p * keep.transpose() + &gain * r * gain.transpose();
         self.check_finite(time)?;
@@ -227,6 +228,18 @@ impl Filter {
             variance: (0..m).map(|i| s[(i, i)]).collect(),
             residual: residual.iter().copied().collect(),
         })
+    }
+
+    /// Keeps the physical parameters physical: a mass, a damping or a friction the update put
+    /// below zero is set to zero (the estimate projected onto what a machine can have), so
+    /// that noise cannot carry one where it would explain the data by a negative loss.
+    fn project(&mut self) {
+        let k = 2 * self.coordinates();
+        for (knob, value) in self.knobs.iter().zip(&mut self.x[k..]) {
+            if knob.is_physical() && *value < 0.0 {
+                *value = 0.0;
+            }
+        }
     }
 
     /// Forgets the positions and velocities (after a gap in the samples): their variances are

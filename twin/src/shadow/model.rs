@@ -26,6 +26,14 @@ pub(super) enum Knob {
     SensorBias { watched: usize },
 }
 
+impl Knob {
+    /// Whether the knob is a physical quantity that cannot be negative (a mass, a damping, a
+    /// friction), as a sensor's bias can.
+    pub fn is_physical(&self) -> bool {
+        !matches!(self, Knob::SensorBias { .. })
+    }
+}
+
 /// One substep of a propagation: its length and the efforts and loads it was given.
 #[derive(Debug, Clone, Default)]
 struct Substep {
