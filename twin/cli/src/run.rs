@@ -150,3 +150,15 @@ fn check_outputs(args: &RunArgs, out: &Path) -> Result<(), Failure> {
     }
     Ok(())
 }
+
+/// The `--summary` file of a command that also records to `out`, opened to be written at the
+/// end; refused when it is the recording's own path.
+pub fn summary_file(summary: Option<&Path>, out: &Path) -> Result<Option<OutputFile>, Failure> {
+    if let Some(path) = summary.filter(|p| same_file(p, out)) {
+        return Err(Failure::usage(format!(
+            "--summary {} is the recording's path too; give them different files",
+            path.display()
+        )));
+    }
+    Ok(summary.map(OutputFile::create).transpose()?)
+}

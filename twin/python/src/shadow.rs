@@ -17,7 +17,7 @@ use twin::shadowing::{self, Anomaly, AnomalyChange, ShadowOptions, ShadowStep, T
 /// The twin beside a running machine. Give it the machine's samples as they arrive,
 /// `command(actuator, t, value)` and `measure(signal, t, value)` (SI, `t` the source's timestamp
 /// in seconds, any origin: the first sample sets it), and call `advance()` now and then: it
-/// processes the samples `latency` seconds behind the newest, in time order, and returns what
+/// processes the samples `latency` seconds behind the slowest stream, in time order, and returns what
 /// each measurement time gave. `flush()` processes the rest (at the end). Samples older than
 /// those processed are dropped as late, a repeated one (same signal, same time) as a duplicate
 /// (`counts`). Times in what it returns are seconds since the first sample (`origin`).

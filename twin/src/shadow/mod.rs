@@ -139,7 +139,7 @@ pub struct Shadow {
     time: f64,
     /// The first sample's source time, s.
     origin: Option<f64>,
-    /// Seconds the intake holds samples behind the newest.
+    /// Seconds the intake holds samples behind the slowest live stream.
     latency: f64,
     scenario_name: String,
     /// Spans longer than [`MAX_GAP`] without a sample.
@@ -295,7 +295,8 @@ impl Shadow {
         self.intake.counts
     }
 
-    /// Processes the samples that are `latency` behind the newest.
+    /// Processes the samples that are `latency` behind the slowest live stream (each command and
+    /// signal is a stream; one silent for a second stops holding the others back).
     pub fn advance(&mut self) -> Result<Vec<ShadowStep>, ShadowError> {
         let until = self.intake.watermark() - self.latency;
         self.process(until)

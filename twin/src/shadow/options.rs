@@ -35,7 +35,8 @@ pub struct ShadowOptions {
     pub false_alarms_per_hour: f64,
     /// Seconds at the start taken as healthy, to learn the innovations' statistics.
     pub learn: f64,
-    /// Seconds a sample may arrive behind the newest and still be processed in order.
+    /// Seconds a sample may arrive behind its slowest live stream and still be processed in
+    /// order.
     pub latency: f64,
     /// Measurement noise σ per signal, SI (default: the scenario's sensor: noise and
     /// quantisation).

@@ -299,26 +299,13 @@ fn hook_commands(
     shared: &Arc<Shared>,
 ) {
     for (index, joint) in layout.actuators.iter().enumerate() {
-        let node = id(&format!("effort.{joint}"));
-        let writer = shared.clone();
-        manager
-            .inner()
-            .add_write_callback(node.clone(), move |value, _range| {
-                match value.value.and_then(|v| v.try_cast_to::<f64>().ok()) {
-                    Some(command) if command.is_finite() => {
-                        writer.set_command(index, command);
-                        StatusCode::Good
-                    }
-                    Some(_) => StatusCode::BadOutOfRange,
-                    None => StatusCode::BadTypeMismatch,
-                }
-            });
-        let reader = shared.clone();
-        manager
-            .inner()
-            .add_read_callback(node, move |_range, _timestamps, _age| {
-                Ok(DataValue::new_now(reader.command(index)))
-            });
+        let (writer, reader) = (shared.clone(), shared.clone());
+        hook_number(
+            manager,
+            id(&format!("effort.{joint}")),
+            move |command| writer.set_command(index, command),
+            move || reader.command(index),
+        );
     }
 }
 
@@ -326,27 +313,41 @@ fn hook_commands(
 /// return it.
 fn hook_setpoints(manager: &SimpleNodeManager, id: &dyn Fn(&str) -> NodeId, shared: &Arc<Shared>) {
     for (index, signal) in SETPOINTS.iter().enumerate() {
-        let node = id(&format!("setpoint.{signal}"));
-        let writer = shared.clone();
-        manager
-            .inner()
-            .add_write_callback(node.clone(), move |value, _range| {
-                match value.value.and_then(|v| v.try_cast_to::<f64>().ok()) {
-                    Some(offset) if offset.is_finite() => {
-                        writer.set_setpoint(index, offset);
-                        StatusCode::Good
-                    }
-                    Some(_) => StatusCode::BadOutOfRange,
-                    None => StatusCode::BadTypeMismatch,
-                }
-            });
-        let reader = shared.clone();
-        manager
-            .inner()
-            .add_read_callback(node, move |_range, _timestamps, _age| {
-                Ok(DataValue::new_now(reader.setpoint_component(index)))
-            });
+        let (writer, reader) = (shared.clone(), shared.clone());
+        hook_number(
+            manager,
+            id(&format!("setpoint.{signal}")),
+            move |offset| writer.set_setpoint(index, offset),
+            move || reader.setpoint_component(index),
+        );
     }
+}
+
+/// A writable number: a finite write goes to `write` (`BadOutOfRange` otherwise,
+/// `BadTypeMismatch` for what is not a number), a read returns `read`.
+fn hook_number(
+    manager: &SimpleNodeManager,
+    node: NodeId,
+    write: impl Fn(f64) + Send + Sync + 'static,
+    read: impl Fn() -> f64 + Send + Sync + 'static,
+) {
+    manager
+        .inner()
+        .add_write_callback(node.clone(), move |value, _range| {
+            match value.value.and_then(|v| v.try_cast_to::<f64>().ok()) {
+                Some(number) if number.is_finite() => {
+                    write(number);
+                    StatusCode::Good
+                }
+                Some(_) => StatusCode::BadOutOfRange,
+                None => StatusCode::BadTypeMismatch,
+            }
+        });
+    manager
+        .inner()
+        .add_read_callback(node, move |_range, _timestamps, _age| {
+            Ok(DataValue::new_now(read()))
+        });
 }
 
 fn hook_advance(manager: &SimpleNodeManager, node: NodeId, shared: Arc<Shared>) {

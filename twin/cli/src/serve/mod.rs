@@ -29,10 +29,7 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 use std::sync::Arc;
 use std::time::Duration;
-use twin::{
-    same_file, summary, LiveViewer, LoadedScenario, OutputFile, Overrides, Scenario, Twin,
-    TwinError,
-};
+use twin::{summary, LiveViewer, LoadedScenario, Overrides, Scenario, Twin, TwinError};
 
 /// How long the server stays up after the run, so that a client's last call gets its answer.
 const LINGER: Duration = Duration::from_millis(300);
@@ -121,17 +118,7 @@ pub fn serve(args: &ServeArgs, registry: &Registry) -> Result<ExitCode, Failure>
         .out
         .clone()
         .unwrap_or_else(|| PathBuf::from(format!("{}.rrd", loaded.scenario.name)));
-    if let Some(path) = args.summary.as_deref().filter(|p| same_file(p, &out)) {
-        return Err(Failure::usage(format!(
-            "--summary {} is the recording's path too; give them different files",
-            path.display()
-        )));
-    }
-    let summary_file = args
-        .summary
-        .as_deref()
-        .map(OutputFile::create)
-        .transpose()?;
+    let summary_file = crate::run::summary_file(args.summary.as_deref(), &out)?;
     let machine = loaded.scenario.machine.clone();
     let server = OpcUaServer::bind(endpoint, security)?;
     if let Some(line) = server.describe() {

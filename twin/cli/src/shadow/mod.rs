@@ -15,7 +15,7 @@ use framework::Registry;
 use std::path::PathBuf;
 use std::process::ExitCode;
 use twin::shadowing::{Shadow, ShadowOptions, ShadowRecording, TrackedParameter};
-use twin::{same_file, LiveViewer, OutputFile, Overrides, Scenario};
+use twin::{LiveViewer, Overrides, Scenario};
 
 /// `twin shadow` arguments.
 #[derive(Debug, Clone, clap::Args)]
@@ -53,7 +53,7 @@ pub struct ShadowArgs {
     /// Seconds at the start taken as healthy, to learn the innovations' statistics.
     #[arg(long, default_value_t = 5.0)]
     pub learn: f64,
-    /// Seconds a sample may arrive behind the newest and still be taken in order.
+    /// Seconds a sample may arrive behind the slowest live stream and still be taken in order.
     #[arg(long, default_value_t = 0.25)]
     pub latency: f64,
     /// A signal's measurement noise σ (SI): NAME=SIGMA.
@@ -137,17 +137,7 @@ pub fn shadow(args: &ShadowArgs, registry: &Registry) -> Result<ExitCode, Failur
         .out
         .clone()
         .unwrap_or_else(|| PathBuf::from(format!("{}-shadow.rrd", shadow.scenario_name())));
-    if let Some(path) = args.summary.as_deref().filter(|p| same_file(p, &out)) {
-        return Err(Failure::usage(format!(
-            "--summary {} is the recording's path too; give them different files",
-            path.display()
-        )));
-    }
-    let summary_file = args
-        .summary
-        .as_deref()
-        .map(OutputFile::create)
-        .transpose()?;
+    let summary_file = crate::run::summary_file(args.summary.as_deref(), &out)?;
     let live = args.connect.clone().map(LiveViewer::Connect);
     let id = format!("{}-shadow-{}", shadow.scenario_name(), feed.digest());
     let mut recording = ShadowRecording::create(&out, &shadow, &id, live)?;

@@ -12,20 +12,13 @@ tracking error r − x and the effort written.
 
 import asyncio
 import json
+import pathlib
 import sys
 
-from asyncua import Client, ua
+from asyncua import ua
 
-
-async def connect(url):
-    for _ in range(400):
-        client = Client(url=url, timeout=10)
-        try:
-            await client.connect()
-            return client
-        except (OSError, asyncio.TimeoutError):
-            await asyncio.sleep(0.05)
-    raise SystemExit(f"no OPC UA server at {url}")
+sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent.parent))
+from opcua_connect import connect  # noqa: E402  (the tests' shared helper)
 
 
 async def main(url, machine_name, joint, kp, kd, rate, periods, out):

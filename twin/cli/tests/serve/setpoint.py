@@ -12,22 +12,15 @@ object.
 import asyncio
 import json
 import struct
+import pathlib
 import sys
 
-from asyncua import Client, ua
+from asyncua import ua
+
+sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent.parent))
+from opcua_connect import connect  # noqa: E402  (the tests' shared helper)
 
 SETPOINTS = ["reference", "reference_rate", "reference_acceleration"]
-
-
-async def connect(url):
-    for _ in range(200):
-        client = Client(url=url, timeout=10)
-        try:
-            await client.connect()
-            return client
-        except (OSError, asyncio.TimeoutError):
-            await asyncio.sleep(0.05)
-    raise SystemExit(f"no OPC UA server at {url}")
 
 
 async def names(node):
