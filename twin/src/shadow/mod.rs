@@ -302,9 +302,16 @@ impl Shadow {
         self.process(until)
     }
 
-    /// Processes every sample taken (at the end of a run).
+    /// Processes every sample taken (at the end of a logged run, whose streams are complete).
     pub fn flush(&mut self) -> Result<Vec<ShadowStep>, ShadowError> {
         self.process(f64::INFINITY)
+    }
+
+    /// Processes the samples every live stream has reached (at the end of a live watch). The
+    /// newer ones are left out: a stream whose last batch had not come would leave them
+    /// replayed under a stale command, which the parameters would then absorb.
+    pub fn finish(&mut self) -> Result<Vec<ShadowStep>, ShadowError> {
+        self.process(self.intake.watermark())
     }
 
     /// The anomalies found so far: those closed, then the one still open.

@@ -168,7 +168,10 @@ impl Feed {
             }
         }
         let start = Instant::now();
-        let steps = shadow.flush()?;
+        let steps = match sink.live {
+            true => shadow.finish()?,
+            false => shadow.flush()?,
+        };
         sink.take(shadow, steps, start)?;
         sink.publisher.stop();
         Ok(sink.outcome)
