@@ -4,24 +4,38 @@
 /// Factorises the symmetric matrix `a` (n × n, row-major) in place as L·D·Lᵀ (unit lower L below
 /// the diagonal, D on it). A pivot at or below `floor` × the largest diagonal marks a dependent
 /// row (a redundant loop constraint): its D is set to 0 and [`ldl_solve`] gives it no share.
-pub(super) fn ldl_factor(a: &mut [f64], n: usize, floor: f64) {
+#[inline(always)]
+fn ldl_factor_at(a: &mut [f64], n: usize, floor: f64) {
+    let a = &mut a[..n * n];
     let scale = (0..n).map(|i| a[i * n + i].abs()).fold(0.0, f64::max);
     let tiny = floor * scale;
+    // Row j of L times D, kept while column j is made (the pivots so far on the diagonal).
+    let mut scaled = [0.0; 16];
+    let mut spill = Vec::new();
+    let row_times_d: &mut [f64] = if n <= scaled.len() {
+        &mut scaled[..n]
+    } else {
+        spill.resize(n, 0.0);
+        &mut spill
+    };
     for j in 0..n {
-        let mut d = a[j * n + j];
-        for k in 0..j {
-            d -= a[j * n + k] * a[j * n + k] * a[k * n + k];
+        let (above, rest) = a.split_at_mut(j * n);
+        let (row_j, below) = rest.split_at_mut(n);
+        for (k, slot) in row_times_d[..j].iter_mut().enumerate() {
+            *slot = row_j[k] * above[k * n + k];
         }
+        let d = row_j[j] - dot(&row_j[..j], &row_times_d[..j]);
         let dependent = d <= tiny;
-        a[j * n + j] = if dependent { 0.0 } else { d };
-        for i in j + 1..n {
-            let mut s = a[i * n + j];
-            for k in 0..j {
-                s -= a[i * n + k] * a[j * n + k] * a[k * n + k];
-            }
-            a[i * n + j] = if dependent { 0.0 } else { s / d };
+        row_j[j] = if dependent { 0.0 } else { d };
+        for row_i in below.chunks_exact_mut(n) {
+            let s = row_i[j] - dot(&row_i[..j], &row_times_d[..j]);
+            row_i[j] = if dependent { 0.0 } else { s / d };
         }
     }
+}
+
+fn dot(a: &[f64], b: &[f64]) -> f64 {
+    a.iter().zip(b).map(|(x, y)| x * y).sum()
 }
 
 /// Solves L·D·Lᵀ·x = b in place (`b` becomes x) with the factors of [`ldl_factor`].
@@ -30,8 +44,46 @@ pub(super) fn ldl_solve(f: &[f64], n: usize, b: &mut [f64]) {
     ldl_backward(f, n, b);
 }
 
+/// Calls `$body` (a function of the size) with the size a constant for the sizes the machines
+/// have, so that the compiler unrolls these few-unknown loops; any other size runs as it is.
+macro_rules! sized {
+    ($n:expr, $body:ident ( $($arg:expr),* )) => {
+        match $n {
+            1 => $body($($arg,)* 1),
+            2 => $body($($arg,)* 2),
+            3 => $body($($arg,)* 3),
+            4 => $body($($arg,)* 4),
+            5 => $body($($arg,)* 5),
+            6 => $body($($arg,)* 6),
+            7 => $body($($arg,)* 7),
+            8 => $body($($arg,)* 8),
+            n => $body($($arg,)* n),
+        }
+    };
+}
+
+/// Factorises the symmetric matrix `a` (n × n, row-major) in place as L·D·Lᵀ (see
+/// [`ldl_factor_at`]).
+pub(super) fn ldl_factor(a: &mut [f64], n: usize, floor: f64) {
+    let factor = |a: &mut [f64], floor: f64, n: usize| ldl_factor_at(a, n, floor);
+    sized!(n, factor(a, floor))
+}
+
 /// L·z = b in place (`b` becomes z).
 pub(super) fn ldl_forward(f: &[f64], n: usize, b: &mut [f64]) {
+    let forward = |f: &[f64], b: &mut [f64], n: usize| ldl_forward_at(f, n, b);
+    sized!(n, forward(f, b))
+}
+
+/// D·Lᵀ·x = z in place (`z` becomes x): the second half of [`ldl_solve`].
+pub(super) fn ldl_backward(f: &[f64], n: usize, z: &mut [f64]) {
+    let backward = |f: &[f64], z: &mut [f64], n: usize| ldl_backward_at(f, n, z);
+    sized!(n, backward(f, z))
+}
+
+/// L·z = b in place (`b` becomes z).
+#[inline(always)]
+fn ldl_forward_at(f: &[f64], n: usize, b: &mut [f64]) {
     let (f, b) = (&f[..n * n], &mut b[..n]);
     for i in 1..n {
         let row = &f[i * n..i * n + i];
@@ -41,7 +93,8 @@ pub(super) fn ldl_forward(f: &[f64], n: usize, b: &mut [f64]) {
 }
 
 /// D·Lᵀ·x = z in place (`z` becomes x): the second half of [`ldl_solve`].
-pub(super) fn ldl_backward(f: &[f64], n: usize, z: &mut [f64]) {
+#[inline(always)]
+fn ldl_backward_at(f: &[f64], n: usize, z: &mut [f64]) {
     let (f, z) = (&f[..n * n], &mut z[..n]);
     for i in 0..n {
         let d = f[i * n + i];

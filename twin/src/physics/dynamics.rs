@@ -79,6 +79,9 @@ impl Frame {
 #[derive(Debug, Clone, Default)]
 pub(super) struct Kinematics {
     pub n: usize,
+    /// Which posing this is (unique in the process; 0: never posed): what [`Dynamics`] keys
+    /// the matrices it keeps between calls on.
+    pub generation: u64,
     /// Per link: the link frame in the world.
     pub frames: Vec<Frame>,
     /// Per link: the centre of mass in the world.
@@ -89,7 +92,15 @@ pub(super) struct Kinematics {
     pub jw: Vec<f64>,
 }
 
+/// Postings so far, process-wide, so that no two poses share a generation.
+static POSINGS: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
+
 impl Kinematics {
+    /// Marks these kinematics as a new configuration's.
+    pub fn posed(&mut self) {
+        self.generation = 1 + POSINGS.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    }
+
     pub fn resize(&mut self, links: usize, n: usize) {
         self.n = n;
         self.frames.resize(links, Frame::IDENTITY);
@@ -279,6 +290,15 @@ pub(super) struct Dynamics {
     /// G·M⁻¹·Gᵀ, then its factors.
     s: Vec<f64>,
     lambda: Vec<f64>,
+    /// 1/D of M's factors (0 for a dependent pivot).
+    scaled: Vec<f64>,
+    /// The generations of the kinematics that `mass` (factored), `g` and `phi`, and `y` and
+    /// `s` (factored) were made at: within a step the same configuration is asked for them
+    /// several times (the closure's last pose, the velocity projection, the next step's first
+    /// stage), and they are made once.
+    mass_at: Option<u64>,
+    rows_at: Option<u64>,
+    schur_at: Option<u64>,
 }
 
 impl Dynamics {
@@ -301,7 +321,16 @@ impl Dynamics {
             y: vec![0.0; n * m],
             s: vec![0.0; m * m],
             lambda: vec![0.0; m],
+            scaled: vec![0.0; n],
+            mass_at: None,
+            rows_at: None,
+            schur_at: None,
         }
+    }
+
+    /// Forgets the matrices kept (the model's masses changed).
+    pub fn forget(&mut self) {
+        (self.mass_at, self.rows_at, self.schur_at) = (None, None, None);
     }
 
     /// q̈ for the state (q, q̇) posed in `kin` under `inputs`, into `acceleration`. Solves the
@@ -326,32 +355,19 @@ impl Dynamics {
             for r in 0..model.constraint_count {
                 self.lambda[r] = dot(&self.g[r * n..(r + 1) * n], acceleration) + self.gamma[r];
             }
-            self.solve_constrained(n, model.constraint_count, acceleration);
+            self.solve_constrained(kin, model.constraint_count, acceleration);
         }
     }
 
     /// Removes from `delta` (n values, a velocity or a displacement) the part that the
     /// constraint rows `rhs` (in `self.lambda`) ask for, mass-weighted: `delta −= M⁻¹·Gᵀ·S⁻¹·rhs`.
-    /// Needs `self.mass` factored and `self.g` filled.
-    fn solve_constrained(&mut self, n: usize, m: usize, delta: &mut [f64]) {
-        // With M = L·D·Lᵀ and Z = L⁻¹·Gᵀ: S = G·M⁻¹·Gᵀ = Zᵀ·D⁻¹·Z and M⁻¹·Gᵀ·λ = L⁻ᵀ·D⁻¹·Z·λ.
-        for r in 0..m {
-            let column = &mut self.y[r * n..(r + 1) * n];
-            column.copy_from_slice(&self.g[r * n..(r + 1) * n]);
-            ldl_forward(&self.mass, n, column);
+    /// Needs `self.mass` factored and `self.g` filled at `kin`.
+    fn solve_constrained(&mut self, kin: &Kinematics, m: usize, delta: &mut [f64]) {
+        let n = kin.n;
+        if self.schur_at != Some(kin.generation) {
+            self.factor_schur(n, m);
+            self.schur_at = Some(kin.generation);
         }
-        for r in 0..m {
-            for c in 0..=r {
-                let (zr, zc) = (&self.y[r * n..(r + 1) * n], &self.y[c * n..(c + 1) * n]);
-                let value: f64 = (0..n)
-                    .filter(|&k| self.mass[k * n + k] != 0.0)
-                    .map(|k| zr[k] * zc[k] / self.mass[k * n + k])
-                    .sum();
-                self.s[r * m + c] = value;
-                self.s[c * m + r] = value;
-            }
-        }
-        ldl_factor(&mut self.s, m, DEPENDENT_PIVOT);
         ldl_solve(&self.s, m, &mut self.lambda);
         let correction = &mut self.force;
         correction.fill(0.0);
@@ -366,13 +382,40 @@ impl Dynamics {
         }
     }
 
+    /// Z = L⁻¹·Gᵀ into `y` and S = Zᵀ·D⁻¹·Z factored into `s`.
+    fn factor_schur(&mut self, n: usize, m: usize) {
+        // With M = L·D·Lᵀ and Z = L⁻¹·Gᵀ: S = G·M⁻¹·Gᵀ = Zᵀ·D⁻¹·Z and M⁻¹·Gᵀ·λ = L⁻ᵀ·D⁻¹·Z·λ.
+        for r in 0..m {
+            let column = &mut self.y[r * n..(r + 1) * n];
+            column.copy_from_slice(&self.g[r * n..(r + 1) * n]);
+            ldl_forward(&self.mass, n, column);
+        }
+        // D⁻¹·Z once (a dependent pivot, D = 0, takes no share), then S by dot products.
+        for (k, scaled) in self.scaled.iter_mut().enumerate().take(n) {
+            let d = self.mass[k * n + k];
+            *scaled = if d == 0.0 { 0.0 } else { 1.0 / d };
+        }
+        for r in 0..m {
+            let zr = &self.y[r * n..(r + 1) * n];
+            for c in 0..=r {
+                let zc = &self.y[c * n..(c + 1) * n];
+                let value: f64 = (zr.iter().zip(zc).zip(&self.scaled[..n]))
+                    .map(|((a, b), w)| a * b * w)
+                    .sum();
+                self.s[r * m + c] = value;
+                self.s[c * m + r] = value;
+            }
+        }
+        ldl_factor(&mut self.s, m, DEPENDENT_PIVOT);
+    }
+
     /// The mass-weighted least correction of q that brings φ(q) (in `self.phi`, from
     /// [`Self::constraints`]) to zero to first order: one Gauss–Newton step, into `dq`.
     pub fn position_correction(&mut self, model: &Model, kin: &Kinematics, dq: &mut [f64]) {
         self.factor_mass_matrix(model, kin);
         dq.fill(0.0);
         self.lambda.copy_from_slice(&self.phi);
-        self.solve_constrained(kin.n, model.constraint_count, dq);
+        self.solve_constrained(kin, model.constraint_count, dq);
     }
 
     /// Projects v onto the constraints' tangent space, G·v = 0, mass-weighted (the kinetic
@@ -384,7 +427,7 @@ impl Dynamics {
         for r in 0..model.constraint_count {
             self.lambda[r] = dot(&self.g[r * n..(r + 1) * n], v);
         }
-        self.solve_constrained(n, model.constraint_count, v);
+        self.solve_constrained(kin, model.constraint_count, v);
     }
 
     /// Column `dof` of M⁻¹ at the posed configuration, into `column`: how every coordinate
@@ -451,12 +494,16 @@ impl Dynamics {
     fn add_wrench(&mut self, kin: &Kinematics, link: usize, f: [f64; 2], torque: f64) {
         let (jx, jy) = kin.jv(link);
         let jw = kin.jw(link);
-        for g in 0..kin.n {
-            self.force[g] += jx[g] * f[0] + jy[g] * f[1] + jw[g] * torque;
+        for (((q, x), y), w) in self.force.iter_mut().zip(jx).zip(jy).zip(jw) {
+            *q += x * f[0] + y * f[1] + w * torque;
         }
     }
 
     fn factor_mass_matrix(&mut self, model: &Model, kin: &Kinematics) {
+        if self.mass_at == Some(kin.generation) {
+            return;
+        }
+        self.mass_at = Some(kin.generation);
         let n = kin.n;
         self.mass.fill(0.0);
         for (l, link) in model.mechanism.links.iter().enumerate() {
@@ -465,13 +512,14 @@ impl Dynamics {
             };
             let (jx, jy) = kin.jv(l);
             let jw = kin.jw(l);
+            let (m, izz) = (inertial.mass, inertial.izz);
             for a in 0..n {
-                if jx[a] == 0.0 && jy[a] == 0.0 && jw[a] == 0.0 {
+                let (xa, ya, wa) = (m * jx[a], m * jy[a], izz * jw[a]);
+                if xa == 0.0 && ya == 0.0 && wa == 0.0 {
                     continue;
                 }
                 for b in 0..=a {
-                    self.mass[a * n + b] += inertial.mass * (jx[a] * jx[b] + jy[a] * jy[b])
-                        + inertial.izz * jw[a] * jw[b];
+                    self.mass[a * n + b] += xa * jx[b] + ya * jy[b] + wa * jw[b];
                 }
             }
         }
@@ -483,20 +531,28 @@ impl Dynamics {
         ldl_factor(&mut self.mass, n, 0.0);
     }
 
-    /// Fills φ(q) and G for the posed configuration, and with `v` the velocity products γ.
+    /// Fills φ(q) and G for the posed configuration (unless they are of it already), and with
+    /// `v` the velocity products γ.
     pub fn constraints(&mut self, model: &Model, kin: &Kinematics, v: Option<&[f64]>) {
         let n = kin.n;
-        self.g.fill(0.0);
+        let fill = self.rows_at != Some(kin.generation);
+        if !fill && v.is_none() {
+            return;
+        }
+        if fill {
+            self.g.fill(0.0);
+        }
         for (l, closure) in model.mechanism.loops.iter().enumerate() {
             let rows = &mut self.g[2 * l * n..(2 * l + 2) * n];
-            let (row_a, row_b) = rows.split_at_mut(n);
+            let rows = fill.then(|| rows.split_at_mut(n));
             let ends = (closure.link1, closure.link2);
             let geometry = &model.loop_geometry[l];
             let velocity = v.map(|v| (v, &self.motion));
-            let (phi, gamma) = loop_rows(kin, ends, geometry, (row_a, row_b), velocity);
+            let (phi, gamma) = loop_rows(kin, ends, geometry, rows, velocity);
             self.phi[2 * l..2 * l + 2].copy_from_slice(&phi);
             self.gamma[2 * l..2 * l + 2].copy_from_slice(&gamma);
         }
+        self.rows_at = Some(kin.generation);
     }
 }
 
@@ -539,8 +595,8 @@ impl LinkMotion {
     }
 }
 
-/// The two rows of one loop joint: φ, its Jacobian rows (into `row_a`, `row_b`, zeroed) and,
-/// given q̇ and the velocity products, γ.
+/// The two rows of one loop joint: φ, with `rows` its Jacobian rows (into `row_a`, `row_b`,
+/// zeroed) and, given q̇ and the velocity products, γ.
 ///
 /// Revolute: the two frame origins coincide, φ = p₂ − p₁. Prismatic (axis u in frame 1,
 /// normal n = z × u): φ_a = n·(p₂ − p₁), the offset across the slide, and φ_b = θ₂ − θ₁, the
@@ -549,7 +605,7 @@ fn loop_rows(
     kin: &Kinematics,
     (l1, l2): (usize, usize),
     geometry: &LoopGeometry,
-    (row_a, row_b): (&mut [f64], &mut [f64]),
+    rows: Option<(&mut [f64], &mut [f64])>,
     velocity: Option<(&[f64], &LinkMotion)>,
 ) -> ([f64; 2], [f64; 2]) {
     let (f1, f2) = (&kin.frames[l1], &kin.frames[l2]);
@@ -560,16 +616,18 @@ fn loop_rows(
         Some(axis) => {
             let u = f1.rotate(axis);
             let normal = [-u[1], u[0]];
-            // Jacobian of n·(p₂ − p₁): n·(J_p₂ − J_p₁) + ((z × n)·d)·Jω₁, as ṅ = ω₁ z × n.
-            point_rows(kin, l2, p2, 1.0, normal, row_a);
-            point_rows(kin, l1, p1, -1.0, normal, row_a);
             let z_cross_n = [-normal[1], normal[0]];
-            let lever = z_cross_n[0] * d[0] + z_cross_n[1] * d[1];
-            let jw1 = kin.jw(l1);
-            let jw2 = kin.jw(l2);
-            for g in 0..kin.n {
-                row_a[g] += lever * jw1[g];
-                row_b[g] = jw2[g] - jw1[g];
+            if let Some((row_a, row_b)) = rows {
+                // Jacobian of n·(p₂ − p₁): n·(J_p₂ − J_p₁) + ((z × n)·d)·Jω₁, as ṅ = ω₁ z × n.
+                point_rows(kin, l2, p2, 1.0, normal, row_a);
+                point_rows(kin, l1, p1, -1.0, normal, row_a);
+                let lever = z_cross_n[0] * d[0] + z_cross_n[1] * d[1];
+                let jw1 = kin.jw(l1);
+                let jw2 = kin.jw(l2);
+                for g in 0..kin.n {
+                    row_a[g] += lever * jw1[g];
+                    row_b[g] = jw2[g] - jw1[g];
+                }
             }
             // θ₂ − θ₁ of the links from their relative rotation R₁ᵀ·R₂, less the frames' offset.
             let relative =
@@ -593,10 +651,12 @@ fn loop_rows(
             (phi, gamma)
         }
         None => {
-            point_rows(kin, l2, p2, 1.0, [1.0, 0.0], row_a);
-            point_rows(kin, l1, p1, -1.0, [1.0, 0.0], row_a);
-            point_rows(kin, l2, p2, 1.0, [0.0, 1.0], row_b);
-            point_rows(kin, l1, p1, -1.0, [0.0, 1.0], row_b);
+            if let Some((row_a, row_b)) = rows {
+                point_rows(kin, l2, p2, 1.0, [1.0, 0.0], row_a);
+                point_rows(kin, l1, p1, -1.0, [1.0, 0.0], row_a);
+                point_rows(kin, l2, p2, 1.0, [0.0, 1.0], row_b);
+                point_rows(kin, l1, p1, -1.0, [0.0, 1.0], row_b);
+            }
             if let Some((_, motion)) = velocity {
                 gamma = sub(motion.point_vp(kin, l2, p2), motion.point_vp(kin, l1, p1));
             }
@@ -617,9 +677,9 @@ fn point_rows(
     let (jx, jy) = kin.jv(link);
     let jw = kin.jw(link);
     let [rx, ry] = sub(point, kin.com[link]);
-    for g in 0..kin.n {
-        row[g] +=
-            scale * (direction[0] * (jx[g] - ry * jw[g]) + direction[1] * (jy[g] + rx * jw[g]));
+    let [dx, dy] = [scale * direction[0], scale * direction[1]];
+    for (((r, x), y), w) in row.iter_mut().zip(jx).zip(jy).zip(jw) {
+        *r += dx * (x - ry * w) + dy * (y + rx * w);
     }
 }
 

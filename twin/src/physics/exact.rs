@@ -1,7 +1,8 @@
-//! The exact engine: Rapier holds the URDF tree as multibodies (reduced coordinates) and supplies,
-//! at any configuration, the link poses and body Jacobians ([`super::rapier_model`]). The twin
-//! builds the equations of motion from them, with each `<loop_joint>` as a holonomic constraint
-//! ([`super::dynamics`]), and advances them itself:
+//! The exact engine: Rapier holds the URDF tree as multibodies (reduced coordinates) and poses
+//! the end-of-step state ([`super::rapier_model`]); the stages in between are posed by the
+//! twin's own recursion over the same tree ([`super::tree`], checked against Rapier's). The twin
+//! builds the equations of motion from the link poses and body Jacobians, with each
+//! `<loop_joint>` as a holonomic constraint ([`super::dynamics`]), and advances them itself:
 //!
 //! 1. one classical Runge–Kutta (RK4) step of the constrained equations per substep, efforts and
 //!    loads held over the step — fourth order, so no numerical damping worth the name;
@@ -14,6 +15,7 @@
 
 use super::dynamics::{Dynamics, HeldLoad, Inputs, Kinematics, Model};
 use super::rapier_model::RapierModel;
+use super::tree::Tree;
 use super::{loop_gaps, Load, MechanismState};
 use crate::mechanism::{Inertial, Mechanism};
 
@@ -34,6 +36,8 @@ pub(super) struct ExactSettings {
 pub(super) struct ExactEngine {
     pub(super) model: Model,
     pub(super) rapier: RapierModel,
+    /// The stages' kinematics (Rapier poses the end-of-step state).
+    tree: Tree,
     pub(super) dynamics: Dynamics,
     settings: ExactSettings,
     /// Generalized coordinates and velocities (Rapier's signs).
@@ -61,6 +65,7 @@ impl ExactEngine {
         let n = model.dofs();
         let mut physics = Self {
             rapier: RapierModel::new(mechanism),
+            tree: Tree::new(mechanism),
             dynamics: Dynamics::new(&model),
             settings: ExactSettings {
                 substeps: settings.substeps.max(1),
@@ -89,6 +94,8 @@ impl ExactEngine {
     pub fn set_link_inertial(&mut self, link: usize, inertial: Inertial) {
         if let Some(slot) = self.model.mechanism.links.get_mut(link) {
             slot.inertial = Some(inertial);
+            self.dynamics.forget();
+            self.tree.set_masses(&self.model.mechanism);
         }
     }
 
@@ -148,7 +155,7 @@ impl ExactEngine {
     fn runge_kutta(&mut self, h: f64) {
         let Self {
             model,
-            rapier,
+            tree,
             dynamics,
             settings,
             q,
@@ -157,6 +164,7 @@ impl ExactEngine {
             stage,
             efforts,
             loads,
+            ..
         } = self;
         let inputs = Inputs {
             efforts,
@@ -172,7 +180,7 @@ impl ExactEngine {
                 stage.q[g] = q[g] + step * rate;
                 stage.v[k][g] = v[g] + step * stage.a[k][g];
             }
-            rapier.pose(&model.mechanism, &stage.q, &mut stage.kin);
+            tree.pose(&stage.q, &mut stage.kin);
             dynamics.acceleration(
                 model,
                 &stage.kin,
@@ -205,15 +213,23 @@ impl ExactEngine {
         }
     }
 
-    /// Poses the mechanism at `q`, first bringing the loop constraints to zero by Gauss–Newton
-    /// (the mass-weighted least correction each iteration).
+    /// Poses the mechanism at `q` (Rapier's pose: the end-of-step state), first bringing the
+    /// loop constraints to zero by Gauss–Newton (the mass-weighted least correction each
+    /// iteration). The first check is on the tree's own kinematics; a corrected q is posed by
+    /// Rapier, as it is most likely the end-of-step state.
     fn close_loops(&mut self) {
         let n = self.q.len();
-        for _ in 0..CLOSURE_ITERATIONS {
-            self.rapier
-                .pose(&self.model.mechanism, &self.q, &mut self.kin);
+        let mut posed_by_rapier = false;
+        for iteration in 0..CLOSURE_ITERATIONS {
             if self.model.constraint_count == 0 {
-                return;
+                break;
+            }
+            posed_by_rapier = iteration > 0;
+            match posed_by_rapier {
+                true => self
+                    .rapier
+                    .pose(&self.model.mechanism, &self.q, &mut self.kin),
+                false => self.tree.pose(&self.q, &mut self.kin),
             }
             self.dynamics.constraints(&self.model, &self.kin, None);
             let residual = self
@@ -222,7 +238,7 @@ impl ExactEngine {
                 .iter()
                 .fold(0.0, |m: f64, p| m.max(p.abs()));
             if residual <= CLOSURE_TOLERANCE || !residual.is_finite() {
-                return;
+                break;
             }
             let dq = &mut self.stage.column[..n];
             self.dynamics
@@ -230,9 +246,12 @@ impl ExactEngine {
             for (q, d) in self.q.iter_mut().zip(dq.iter()) {
                 *q += *d;
             }
+            posed_by_rapier = false;
         }
-        self.rapier
-            .pose(&self.model.mechanism, &self.q, &mut self.kin);
+        if !posed_by_rapier {
+            self.rapier
+                .pose(&self.model.mechanism, &self.q, &mut self.kin);
+        }
     }
 
     /// Dry friction (URDF `<dynamics friction>`): per joint, the impulse of at most F·h that

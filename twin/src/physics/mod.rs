@@ -20,6 +20,7 @@ mod options;
 mod rapier_engine;
 mod rapier_model;
 mod shapes;
+mod tree;
 
 use crate::mechanism::{Inertial, JointMotion, Mechanism, Pose2};
 use exact::{ExactEngine, ExactSettings};

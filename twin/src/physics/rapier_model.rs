@@ -79,6 +79,7 @@ impl RapierModel {
             mb.forward_kinematics(&self.bodies, false);
         }
         kin.resize(mechanism.links.len(), q.len());
+        kin.posed();
         let n = q.len();
         kin.jv.fill(0.0);
         kin.jw.fill(0.0);
