@@ -39,6 +39,7 @@ fn dot(a: &[f64], b: &[f64]) -> f64 {
 }
 
 /// Solves L·D·Lᵀ·x = b in place (`b` becomes x) with the factors of [`ldl_factor`].
+#[inline]
 pub(super) fn ldl_solve(f: &[f64], n: usize, b: &mut [f64]) {
     ldl_forward(f, n, b);
     ldl_backward(f, n, b);
@@ -64,18 +65,21 @@ macro_rules! sized {
 
 /// Factorises the symmetric matrix `a` (n × n, row-major) in place as L·D·Lᵀ (see
 /// [`ldl_factor_at`]).
+#[inline]
 pub(super) fn ldl_factor(a: &mut [f64], n: usize, floor: f64) {
     let factor = |a: &mut [f64], floor: f64, n: usize| ldl_factor_at(a, n, floor);
     sized!(n, factor(a, floor))
 }
 
 /// L·z = b in place (`b` becomes z).
+#[inline]
 pub(super) fn ldl_forward(f: &[f64], n: usize, b: &mut [f64]) {
     let forward = |f: &[f64], b: &mut [f64], n: usize| ldl_forward_at(f, n, b);
     sized!(n, forward(f, b))
 }
 
 /// D·Lᵀ·x = z in place (`z` becomes x): the second half of [`ldl_solve`].
+#[inline]
 pub(super) fn ldl_backward(f: &[f64], n: usize, z: &mut [f64]) {
     let backward = |f: &[f64], z: &mut [f64], n: usize| ldl_backward_at(f, n, z);
     sized!(n, backward(f, z))

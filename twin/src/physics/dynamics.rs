@@ -109,24 +109,65 @@ impl Kinematics {
         self.jw.resize(links * n, 0.0);
     }
 
-    fn jv(&self, link: usize) -> (&[f64], &[f64]) {
-        let n = self.n;
+    /// The coordinates: `N` when it is not 0 (a size the compiler then knows), else `n`.
+    #[inline(always)]
+    fn size<const N: usize>(&self) -> usize {
+        if N == 0 {
+            self.n
+        } else {
+            N
+        }
+    }
+
+    #[inline(always)]
+    fn jv<const N: usize>(&self, link: usize) -> (&[f64], &[f64]) {
+        let n = self.size::<N>();
         let rows = &self.jv[link * 2 * n..(link + 1) * 2 * n];
         rows.split_at(n)
     }
 
-    fn jw(&self, link: usize) -> &[f64] {
-        &self.jw[link * self.n..(link + 1) * self.n]
+    #[inline(always)]
+    fn jw<const N: usize>(&self, link: usize) -> &[f64] {
+        let n = self.size::<N>();
+        &self.jw[link * n..(link + 1) * n]
     }
 
     /// Velocity of a world point fixed on `link` and the link's angular velocity, [vx, vy, ω]:
     /// the centre of mass's J·q̇ plus ω × (point − com).
     pub fn point_velocity(&self, link: usize, point: [f64; 2], v: &[f64]) -> [f64; 3] {
-        let (jx, jy) = self.jv(link);
-        let omega = dot(self.jw(link), v);
+        self.point_velocity_of::<0>(link, point, v)
+    }
+
+    #[inline(always)]
+    fn point_velocity_of<const N: usize>(
+        &self,
+        link: usize,
+        point: [f64; 2],
+        v: &[f64],
+    ) -> [f64; 3] {
+        let (jx, jy) = self.jv::<N>(link);
+        let omega = dot(self.jw::<N>(link), v);
         let [rx, ry] = sub(point, self.com[link]);
         [dot(jx, v) - omega * ry, dot(jy, v) + omega * rx, omega]
     }
+}
+
+/// Calls `$call` with the const parameter set to the mechanism's size `$n` for the sizes the
+/// machines have (the loops over coordinates then unroll), else with 0 (any size).
+macro_rules! sized {
+    ($n:expr, $($call:ident)::+ ($($arg:expr),*)) => {
+        match $n {
+            1 => $($call)::+::<1>($($arg),*),
+            2 => $($call)::+::<2>($($arg),*),
+            3 => $($call)::+::<3>($($arg),*),
+            4 => $($call)::+::<4>($($arg),*),
+            5 => $($call)::+::<5>($($arg),*),
+            6 => $($call)::+::<6>($($arg),*),
+            7 => $($call)::+::<7>($($arg),*),
+            8 => $($call)::+::<8>($($arg),*),
+            _ => $($call)::+::<0>($($arg),*),
+        }
+    };
 }
 
 /// A joint spring (the `<spring>` extension), in Rapier coordinates: force −k·(q − reference).
@@ -339,33 +380,50 @@ impl Dynamics {
         &mut self,
         model: &Model,
         kin: &Kinematics,
+        state: (&[f64], &[f64]),
+        inputs: &Inputs,
+        acceleration: &mut [f64],
+    ) {
+        sized!(
+            kin.n,
+            Dynamics::acceleration_of(self, model, kin, state, inputs, acceleration)
+        )
+    }
+
+    /// [`Self::acceleration`] for `N` coordinates (0: any).
+    #[inline(always)]
+    fn acceleration_of<const N: usize>(
+        &mut self,
+        model: &Model,
+        kin: &Kinematics,
         (q, v): (&[f64], &[f64]),
         inputs: &Inputs,
         acceleration: &mut [f64],
     ) {
-        self.motion.update(model, kin, v);
-        self.generalized_forces(model, kin, (q, v), inputs);
-        self.factor_mass_matrix(model, kin);
-        let n = kin.n;
+        self.motion.update::<N>(model, kin, v);
+        self.generalized_forces::<N>(model, kin, (q, v), inputs);
+        self.factor_mass_matrix::<N>(model, kin);
+        let n = kin.size::<N>();
         acceleration.copy_from_slice(&self.force);
         ldl_solve(&self.mass, n, acceleration);
         if model.constraint_count > 0 {
-            self.constraints(model, kin, Some(v));
+            self.constraints_of::<N>(model, kin, Some(v));
             // G·q̈ = −γ: λ from S·λ = G·q̈_free + γ, then q̈ = q̈_free − M⁻¹·Gᵀ·λ.
             for r in 0..model.constraint_count {
                 self.lambda[r] = dot(&self.g[r * n..(r + 1) * n], acceleration) + self.gamma[r];
             }
-            self.solve_constrained(kin, model.constraint_count, acceleration);
+            self.solve_constrained::<N>(kin, model.constraint_count, acceleration);
         }
     }
 
     /// Removes from `delta` (n values, a velocity or a displacement) the part that the
     /// constraint rows `rhs` (in `self.lambda`) ask for, mass-weighted: `delta −= M⁻¹·Gᵀ·S⁻¹·rhs`.
     /// Needs `self.mass` factored and `self.g` filled at `kin`.
-    fn solve_constrained(&mut self, kin: &Kinematics, m: usize, delta: &mut [f64]) {
-        let n = kin.n;
+    #[inline(always)]
+    fn solve_constrained<const N: usize>(&mut self, kin: &Kinematics, m: usize, delta: &mut [f64]) {
+        let n = kin.size::<N>();
         if self.schur_at != Some(kin.generation) {
-            self.factor_schur(n, m);
+            self.factor_schur::<N>(n, m);
             self.schur_at = Some(kin.generation);
         }
         ldl_solve(&self.s, m, &mut self.lambda);
@@ -383,7 +441,9 @@ impl Dynamics {
     }
 
     /// Z = L⁻¹·Gᵀ into `y` and S = Zᵀ·D⁻¹·Z factored into `s`.
-    fn factor_schur(&mut self, n: usize, m: usize) {
+    #[inline(always)]
+    fn factor_schur<const N: usize>(&mut self, n: usize, m: usize) {
+        let n = if N == 0 { n } else { N };
         // With M = L·D·Lᵀ and Z = L⁻¹·Gᵀ: S = G·M⁻¹·Gᵀ = Zᵀ·D⁻¹·Z and M⁻¹·Gᵀ·λ = L⁻ᵀ·D⁻¹·Z·λ.
         for r in 0..m {
             let column = &mut self.y[r * n..(r + 1) * n];
@@ -412,22 +472,45 @@ impl Dynamics {
     /// The mass-weighted least correction of q that brings φ(q) (in `self.phi`, from
     /// [`Self::constraints`]) to zero to first order: one Gauss–Newton step, into `dq`.
     pub fn position_correction(&mut self, model: &Model, kin: &Kinematics, dq: &mut [f64]) {
-        self.factor_mass_matrix(model, kin);
+        sized!(
+            kin.n,
+            Dynamics::position_correction_of(self, model, kin, dq)
+        )
+    }
+
+    #[inline(always)]
+    fn position_correction_of<const N: usize>(
+        &mut self,
+        model: &Model,
+        kin: &Kinematics,
+        dq: &mut [f64],
+    ) {
+        self.factor_mass_matrix::<N>(model, kin);
         dq.fill(0.0);
         self.lambda.copy_from_slice(&self.phi);
-        self.solve_constrained(kin, model.constraint_count, dq);
+        self.solve_constrained::<N>(kin, model.constraint_count, dq);
     }
 
     /// Projects v onto the constraints' tangent space, G·v = 0, mass-weighted (the kinetic
     /// energy removed is least, so no momentum is invented).
     pub fn project_velocity(&mut self, model: &Model, kin: &Kinematics, v: &mut [f64]) {
-        self.constraints(model, kin, None);
-        self.factor_mass_matrix(model, kin);
-        let n = kin.n;
+        sized!(kin.n, Dynamics::project_velocity_of(self, model, kin, v))
+    }
+
+    #[inline(always)]
+    fn project_velocity_of<const N: usize>(
+        &mut self,
+        model: &Model,
+        kin: &Kinematics,
+        v: &mut [f64],
+    ) {
+        self.constraints_of::<N>(model, kin, None);
+        self.factor_mass_matrix::<N>(model, kin);
+        let n = kin.size::<N>();
         for r in 0..model.constraint_count {
             self.lambda[r] = dot(&self.g[r * n..(r + 1) * n], v);
         }
-        self.solve_constrained(kin, model.constraint_count, v);
+        self.solve_constrained::<N>(kin, model.constraint_count, v);
     }
 
     /// Column `dof` of M⁻¹ at the posed configuration, into `column`: how every coordinate
@@ -439,14 +522,15 @@ impl Dynamics {
         dof: usize,
         column: &mut [f64],
     ) {
-        self.factor_mass_matrix(model, kin);
+        self.factor_mass_matrix::<0>(model, kin);
         column.fill(0.0);
         column[dof] = 1.0;
         ldl_solve(&self.mass, kin.n, column);
     }
 
     /// Q: efforts, springs, damping, gravity and loads, less the velocity-product forces.
-    fn generalized_forces(
+    #[inline(always)]
+    fn generalized_forces<const N: usize>(
         &mut self,
         model: &Model,
         kin: &Kinematics,
@@ -469,12 +553,12 @@ impl Dynamics {
                 inertial.mass * (gravity[0] - a[0]),
                 inertial.mass * (gravity[1] - a[1]),
             ];
-            self.add_wrench(kin, l, f, 0.0);
+            self.add_wrench::<N>(kin, l, f, 0.0);
         }
         for load in inputs.loads {
             let point = kin.frames[load.link].apply(load.local_point);
             let dv = sub(
-                velocity_of(kin.point_velocity(load.link, point, v)),
+                velocity_of(kin.point_velocity_of::<N>(load.link, point, v)),
                 load.start_velocity,
             );
             let dp = sub(point, load.start_point);
@@ -486,32 +570,40 @@ impl Dynamics {
             ];
             let r = sub(point, kin.com[load.link]);
             let torque = r[0] * force[1] - r[1] * force[0];
-            self.add_wrench(kin, load.link, force, torque);
+            self.add_wrench::<N>(kin, load.link, force, torque);
         }
     }
 
     /// Q += Jvᵀ·f + Jωᵀ·τ for a force at the centre of mass of `link` and a torque.
-    fn add_wrench(&mut self, kin: &Kinematics, link: usize, f: [f64; 2], torque: f64) {
-        let (jx, jy) = kin.jv(link);
-        let jw = kin.jw(link);
+    #[inline(always)]
+    fn add_wrench<const N: usize>(
+        &mut self,
+        kin: &Kinematics,
+        link: usize,
+        f: [f64; 2],
+        torque: f64,
+    ) {
+        let (jx, jy) = kin.jv::<N>(link);
+        let jw = kin.jw::<N>(link);
         for (((q, x), y), w) in self.force.iter_mut().zip(jx).zip(jy).zip(jw) {
             *q += x * f[0] + y * f[1] + w * torque;
         }
     }
 
-    fn factor_mass_matrix(&mut self, model: &Model, kin: &Kinematics) {
+    #[inline(always)]
+    fn factor_mass_matrix<const N: usize>(&mut self, model: &Model, kin: &Kinematics) {
         if self.mass_at == Some(kin.generation) {
             return;
         }
         self.mass_at = Some(kin.generation);
-        let n = kin.n;
+        let n = kin.size::<N>();
         self.mass.fill(0.0);
         for (l, link) in model.mechanism.links.iter().enumerate() {
             let Some(inertial) = link.inertial else {
                 continue;
             };
-            let (jx, jy) = kin.jv(l);
-            let jw = kin.jw(l);
+            let (jx, jy) = kin.jv::<N>(l);
+            let jw = kin.jw::<N>(l);
             let (m, izz) = (inertial.mass, inertial.izz);
             for a in 0..n {
                 let (xa, ya, wa) = (m * jx[a], m * jy[a], izz * jw[a]);
@@ -534,7 +626,18 @@ impl Dynamics {
     /// Fills φ(q) and G for the posed configuration (unless they are of it already), and with
     /// `v` the velocity products γ.
     pub fn constraints(&mut self, model: &Model, kin: &Kinematics, v: Option<&[f64]>) {
-        let n = kin.n;
+        self.constraints_of::<0>(model, kin, v);
+    }
+
+    /// [`Self::constraints`] for `N` coordinates (0: any).
+    #[inline(always)]
+    fn constraints_of<const N: usize>(
+        &mut self,
+        model: &Model,
+        kin: &Kinematics,
+        v: Option<&[f64]>,
+    ) {
+        let n = kin.size::<N>();
         let fill = self.rows_at != Some(kin.generation);
         if !fill && v.is_none() {
             return;
@@ -548,8 +651,10 @@ impl Dynamics {
             let ends = (closure.link1, closure.link2);
             let geometry = &model.loop_geometry[l];
             let velocity = v.map(|v| (v, &self.motion));
-            let (phi, gamma) = loop_rows(kin, ends, geometry, rows, velocity);
-            self.phi[2 * l..2 * l + 2].copy_from_slice(&phi);
+            let (phi, gamma) = loop_rows::<N>(kin, ends, geometry, rows, velocity);
+            if fill {
+                self.phi[2 * l..2 * l + 2].copy_from_slice(&phi);
+            }
             self.gamma[2 * l..2 * l + 2].copy_from_slice(&gamma);
         }
         self.rows_at = Some(kin.generation);
@@ -566,9 +671,10 @@ struct LinkMotion {
 impl LinkMotion {
     /// Parents first: a point fixed on a body accelerates by −ω²·r about the body's origin, and
     /// a prismatic slider adds the Coriolis term 2·ω_parent × ṡ·u.
-    fn update(&mut self, model: &Model, kin: &Kinematics, v: &[f64]) {
+    #[inline(always)]
+    fn update<const N: usize>(&mut self, model: &Model, kin: &Kinematics, v: &[f64]) {
         for (l, w) in self.omega.iter_mut().enumerate() {
-            *w = dot(kin.jw(l), v);
+            *w = dot(kin.jw::<N>(l), v);
         }
         self.origin_vp[0] = [0.0; 2];
         for (j, joint) in model.mechanism.joints.iter().enumerate() {
@@ -595,13 +701,14 @@ impl LinkMotion {
     }
 }
 
-/// The two rows of one loop joint: φ, with `rows` its Jacobian rows (into `row_a`, `row_b`,
-/// zeroed) and, given q̇ and the velocity products, γ.
+/// The two rows of one loop joint: with `rows`, φ and its Jacobian rows (into `row_a`,
+/// `row_b`, zeroed; without, φ's angle is left 0) and, given q̇ and the velocity products, γ.
 ///
 /// Revolute: the two frame origins coincide, φ = p₂ − p₁. Prismatic (axis u in frame 1,
 /// normal n = z × u): φ_a = n·(p₂ − p₁), the offset across the slide, and φ_b = θ₂ − θ₁, the
 /// frames stay aligned.
-fn loop_rows(
+#[inline(always)]
+fn loop_rows<const N: usize>(
     kin: &Kinematics,
     (l1, l2): (usize, usize),
     geometry: &LoopGeometry,
@@ -617,31 +724,34 @@ fn loop_rows(
             let u = f1.rotate(axis);
             let normal = [-u[1], u[0]];
             let z_cross_n = [-normal[1], normal[0]];
+            // φ is of the configuration: made with the rows, not again for each γ.
+            let fill = rows.is_some();
             if let Some((row_a, row_b)) = rows {
                 // Jacobian of n·(p₂ − p₁): n·(J_p₂ − J_p₁) + ((z × n)·d)·Jω₁, as ṅ = ω₁ z × n.
-                point_rows(kin, l2, p2, 1.0, normal, row_a);
-                point_rows(kin, l1, p1, -1.0, normal, row_a);
+                point_rows::<N>(kin, l2, p2, 1.0, normal, row_a);
+                point_rows::<N>(kin, l1, p1, -1.0, normal, row_a);
                 let lever = z_cross_n[0] * d[0] + z_cross_n[1] * d[1];
-                let jw1 = kin.jw(l1);
-                let jw2 = kin.jw(l2);
-                for g in 0..kin.n {
+                let jw1 = kin.jw::<N>(l1);
+                let jw2 = kin.jw::<N>(l2);
+                for g in 0..kin.size::<N>() {
                     row_a[g] += lever * jw1[g];
                     row_b[g] = jw2[g] - jw1[g];
                 }
             }
             // θ₂ − θ₁ of the links from their relative rotation R₁ᵀ·R₂, less the frames' offset.
-            let relative =
-                (f1.cos * f2.sin - f1.sin * f2.cos).atan2(f1.cos * f2.cos + f1.sin * f2.sin);
+            let relative = fill.then(|| {
+                (f1.cos * f2.sin - f1.sin * f2.cos).atan2(f1.cos * f2.cos + f1.sin * f2.sin)
+            });
             let phi = [
                 normal[0] * d[0] + normal[1] * d[1],
-                wrap_angle(relative + geometry.frame_angle),
+                relative.map_or(0.0, |r| wrap_angle(r + geometry.frame_angle)),
             ];
             if let Some((v, motion)) = velocity {
                 let w1 = motion.omega[l1];
                 let a = sub(motion.point_vp(kin, l2, p2), motion.point_vp(kin, l1, p1));
                 let d_rate = sub(
-                    velocity_of(kin.point_velocity(l2, p2, v)),
-                    velocity_of(kin.point_velocity(l1, p1, v)),
+                    velocity_of(kin.point_velocity_of::<N>(l2, p2, v)),
+                    velocity_of(kin.point_velocity_of::<N>(l1, p1, v)),
                 );
                 gamma[0] = normal[0] * a[0]
                     + normal[1] * a[1]
@@ -652,10 +762,10 @@ fn loop_rows(
         }
         None => {
             if let Some((row_a, row_b)) = rows {
-                point_rows(kin, l2, p2, 1.0, [1.0, 0.0], row_a);
-                point_rows(kin, l1, p1, -1.0, [1.0, 0.0], row_a);
-                point_rows(kin, l2, p2, 1.0, [0.0, 1.0], row_b);
-                point_rows(kin, l1, p1, -1.0, [0.0, 1.0], row_b);
+                point_rows::<N>(kin, l2, p2, 1.0, [1.0, 0.0], row_a);
+                point_rows::<N>(kin, l1, p1, -1.0, [1.0, 0.0], row_a);
+                point_rows::<N>(kin, l2, p2, 1.0, [0.0, 1.0], row_b);
+                point_rows::<N>(kin, l1, p1, -1.0, [0.0, 1.0], row_b);
             }
             if let Some((_, motion)) = velocity {
                 gamma = sub(motion.point_vp(kin, l2, p2), motion.point_vp(kin, l1, p1));
@@ -666,7 +776,8 @@ fn loop_rows(
 }
 
 /// row += scale × direction·J_point for a world point fixed on `link`.
-fn point_rows(
+#[inline(always)]
+fn point_rows<const N: usize>(
     kin: &Kinematics,
     link: usize,
     point: [f64; 2],
@@ -674,8 +785,8 @@ fn point_rows(
     direction: [f64; 2],
     row: &mut [f64],
 ) {
-    let (jx, jy) = kin.jv(link);
-    let jw = kin.jw(link);
+    let (jx, jy) = kin.jv::<N>(link);
+    let jw = kin.jw::<N>(link);
     let [rx, ry] = sub(point, kin.com[link]);
     let [dx, dy] = [scale * direction[0], scale * direction[1]];
     for (((r, x), y), w) in row.iter_mut().zip(jx).zip(jy).zip(jw) {
