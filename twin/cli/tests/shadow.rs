@@ -13,12 +13,12 @@
 
 mod common;
 
-use common::{free_port, scratch, tools_python, twin};
+use common::{finished_within, free_port, scratch, tools_python, twin};
 use serde_json::Value;
 use std::io::{BufRead, BufReader};
 use std::net::TcpListener;
 use std::path::Path;
-use std::process::{Child, Command, Output, Stdio};
+use std::process::{Child, Command, Stdio};
 use std::sync::mpsc::{channel, Receiver};
 use std::sync::{RwLock, RwLockReadGuard, RwLockWriteGuard};
 use std::time::{Duration, Instant};
@@ -340,33 +340,11 @@ fn map(port: u16, angle_unit: &str) -> String {
     )
 }
 
-/// Runs `command` to its end, killing it and failing the test if it outlives `bound`.
-fn within(command: &mut Command, bound: Duration) -> Output {
-    let mut child = command
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("the command starts");
-    let start = Instant::now();
-    while child.try_wait().unwrap().is_none() {
-        if start.elapsed() > bound {
-            child.kill().ok();
-            let output = child.wait_with_output().unwrap();
-            panic!(
-                "{command:?} still running after {bound:?}: {}",
-                text(&output.stderr)
-            );
-        }
-        std::thread::sleep(Duration::from_millis(20));
-    }
-    child.wait_with_output().unwrap()
-}
-
 /// `twin shadow SCENARIO.toml --map map.toml` in `dir` for `duration` machine seconds with
 /// `extra` options, to `shadow.rrd` and `shadow.json`; its summary.
 fn shadow_live(dir: &Path, scenario: &str, duration: f64, tracked: &[&str]) -> Value {
     let started = Instant::now();
-    let output = within(
+    let output = finished_within(
         Command::new(env!("CARGO_BIN_EXE_twin"))
             .args(["shadow", &format!("{scenario}.toml"), "--map", "map.toml"])
             .args(watching_these(tracked))
@@ -658,7 +636,7 @@ fn bad_input_is_refused_in_one_line_leaving_nothing_behind() {
         std::fs::create_dir(&case_dir).unwrap();
         std::fs::write(case_dir.join("healthy.toml"), &scenario).unwrap();
         std::fs::write(case_dir.join("map.toml"), &map_text).unwrap();
-        let output = within(
+        let output = finished_within(
             Command::new(env!("CARGO_BIN_EXE_twin"))
                 .args(["shadow", "healthy.toml", "--map", "map.toml"])
                 .args(&options)

@@ -353,7 +353,7 @@ fn fit_bounds(value: Option<&Bound<'_, PyAny>>) -> PyResult<Vec<(String, [f64; 2
 }
 
 /// `noise`: a dict of signal → σ, SI, each > 0.
-fn noise_levels(value: Option<&Bound<'_, PyAny>>) -> PyResult<Vec<(String, f64)>> {
+pub(crate) fn noise_levels(value: Option<&Bound<'_, PyAny>>) -> PyResult<Vec<(String, f64)>> {
     let level = |(name, sigma): (String, Bound<'_, PyAny>)| {
         let sigma = sigma
             .extract::<f64>()

@@ -446,28 +446,22 @@ fn drift_of(key: &str, drift: &Bound<'_, PyAny>) -> PyResult<Option<f64>> {
     })
 }
 
-/// `noise`: a dict of watched signal → σ, SI, each > 0.
+/// `noise`: a dict of watched signal → σ, SI, each > 0 (read as calibration reads it).
 fn noise_levels(
     value: Option<&Bound<'_, PyAny>>,
     signals: &[String],
 ) -> PyResult<Vec<(String, f64)>> {
-    let level = |(name, sigma): (String, Bound<'_, PyAny>)| {
-        if !signals.contains(&name) {
-            let reason = format!(
+    let given = shadow_refusal(crate::calibration::noise_levels(value))?;
+    match given.iter().find(|(name, _)| !signals.contains(name)) {
+        Some((name, _)) => Err(refuse(
+            "noise",
+            format!(
                 "`{name}` is not a watched signal (watched: {})",
                 signals.join(", ")
-            );
-            return Err(refuse("noise", reason));
-        }
-        let sigma = sigma
-            .extract::<f64>()
-            .ok()
-            .filter(|s| *s > 0.0 && s.is_finite());
-        let sigma = sigma.ok_or_else(|| refuse("noise", format!("{name}: σ must be > 0")))?;
-        Ok((name, sigma))
-    };
-    let given = shadow_refusal(entries("noise", value))?;
-    given.into_iter().map(level).collect()
+            ),
+        )),
+        None => Ok(given),
+    }
 }
 
 /// Name → unit pairs as a dict.

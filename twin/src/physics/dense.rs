@@ -1,11 +1,66 @@
 //! Small dense linear algebra for the twin's integrator: symmetric positive (semi)definite
 //! systems of a few unknowns, row-major in caller-owned buffers, so a step allocates nothing.
 
+/// Calls `$call` with its const parameter set to the mechanism's size `$n` for the sizes the
+/// machines have (1 to 8: the loops over coordinates then unroll), else with 0 (any size, read
+/// at run time). A function so called takes its size as `if N == 0 { n } else { N }`.
+macro_rules! sized {
+    ($n:expr, $($call:ident)::+ ($($arg:expr),*)) => {
+        match $n {
+            1 => $($call)::+::<1>($($arg),*),
+            2 => $($call)::+::<2>($($arg),*),
+            3 => $($call)::+::<3>($($arg),*),
+            4 => $($call)::+::<4>($($arg),*),
+            5 => $($call)::+::<5>($($arg),*),
+            6 => $($call)::+::<6>($($arg),*),
+            7 => $($call)::+::<7>($($arg),*),
+            8 => $($call)::+::<8>($($arg),*),
+            _ => $($call)::+::<0>($($arg),*),
+        }
+    };
+}
+pub(super) use sized;
+
+/// The size `n`, or `N` where the caller fixed it (see [`sized!`]).
+#[inline(always)]
+pub(super) const fn size<const N: usize>(n: usize) -> usize {
+    if N == 0 {
+        n
+    } else {
+        N
+    }
+}
+
 /// Factorises the symmetric matrix `a` (n × n, row-major) in place as L·D·Lᵀ (unit lower L below
 /// the diagonal, D on it). A pivot at or below `floor` × the largest diagonal marks a dependent
 /// row (a redundant loop constraint): its D is set to 0 and [`ldl_solve`] gives it no share.
+#[inline]
+pub(super) fn ldl_factor(a: &mut [f64], n: usize, floor: f64) {
+    sized!(n, ldl_factor_of(a, n, floor))
+}
+
+/// Solves L·D·Lᵀ·x = b in place (`b` becomes x) with the factors of [`ldl_factor`].
+#[inline]
+pub(super) fn ldl_solve(f: &[f64], n: usize, b: &mut [f64]) {
+    ldl_forward(f, n, b);
+    ldl_backward(f, n, b);
+}
+
+/// L·z = b in place (`b` becomes z).
+#[inline]
+pub(super) fn ldl_forward(f: &[f64], n: usize, b: &mut [f64]) {
+    sized!(n, ldl_forward_of(f, n, b))
+}
+
+/// D·Lᵀ·x = z in place (`z` becomes x): the second half of [`ldl_solve`].
+#[inline]
+pub(super) fn ldl_backward(f: &[f64], n: usize, z: &mut [f64]) {
+    sized!(n, ldl_backward_of(f, n, z))
+}
+
 #[inline(always)]
-fn ldl_factor_at(a: &mut [f64], n: usize, floor: f64) {
+fn ldl_factor_of<const N: usize>(a: &mut [f64], n: usize, floor: f64) {
+    let n = size::<N>(n);
     let a = &mut a[..n * n];
     let scale = (0..n).map(|i| a[i * n + i].abs()).fold(0.0, f64::max);
     let tiny = floor * scale;
@@ -34,60 +89,14 @@ fn ldl_factor_at(a: &mut [f64], n: usize, floor: f64) {
     }
 }
 
-fn dot(a: &[f64], b: &[f64]) -> f64 {
+/// a·b.
+pub(super) fn dot(a: &[f64], b: &[f64]) -> f64 {
     a.iter().zip(b).map(|(x, y)| x * y).sum()
 }
 
-/// Solves L·D·Lᵀ·x = b in place (`b` becomes x) with the factors of [`ldl_factor`].
-#[inline]
-pub(super) fn ldl_solve(f: &[f64], n: usize, b: &mut [f64]) {
-    ldl_forward(f, n, b);
-    ldl_backward(f, n, b);
-}
-
-/// Calls `$body` (a function of the size) with the size a constant for the sizes the machines
-/// have, so that the compiler unrolls these few-unknown loops; any other size runs as it is.
-macro_rules! sized {
-    ($n:expr, $body:ident ( $($arg:expr),* )) => {
-        match $n {
-            1 => $body($($arg,)* 1),
-            2 => $body($($arg,)* 2),
-            3 => $body($($arg,)* 3),
-            4 => $body($($arg,)* 4),
-            5 => $body($($arg,)* 5),
-            6 => $body($($arg,)* 6),
-            7 => $body($($arg,)* 7),
-            8 => $body($($arg,)* 8),
-            n => $body($($arg,)* n),
-        }
-    };
-}
-
-/// Factorises the symmetric matrix `a` (n × n, row-major) in place as L·D·Lᵀ (see
-/// [`ldl_factor_at`]).
-#[inline]
-pub(super) fn ldl_factor(a: &mut [f64], n: usize, floor: f64) {
-    let factor = |a: &mut [f64], floor: f64, n: usize| ldl_factor_at(a, n, floor);
-    sized!(n, factor(a, floor))
-}
-
-/// L·z = b in place (`b` becomes z).
-#[inline]
-pub(super) fn ldl_forward(f: &[f64], n: usize, b: &mut [f64]) {
-    let forward = |f: &[f64], b: &mut [f64], n: usize| ldl_forward_at(f, n, b);
-    sized!(n, forward(f, b))
-}
-
-/// D·Lᵀ·x = z in place (`z` becomes x): the second half of [`ldl_solve`].
-#[inline]
-pub(super) fn ldl_backward(f: &[f64], n: usize, z: &mut [f64]) {
-    let backward = |f: &[f64], z: &mut [f64], n: usize| ldl_backward_at(f, n, z);
-    sized!(n, backward(f, z))
-}
-
-/// L·z = b in place (`b` becomes z).
 #[inline(always)]
-fn ldl_forward_at(f: &[f64], n: usize, b: &mut [f64]) {
+fn ldl_forward_of<const N: usize>(f: &[f64], n: usize, b: &mut [f64]) {
+    let n = size::<N>(n);
     let (f, b) = (&f[..n * n], &mut b[..n]);
     for i in 1..n {
         let row = &f[i * n..i * n + i];
@@ -96,9 +105,9 @@ fn ldl_forward_at(f: &[f64], n: usize, b: &mut [f64]) {
     }
 }
 
-/// D·Lᵀ·x = z in place (`z` becomes x): the second half of [`ldl_solve`].
 #[inline(always)]
-fn ldl_backward_at(f: &[f64], n: usize, z: &mut [f64]) {
+fn ldl_backward_of<const N: usize>(f: &[f64], n: usize, z: &mut [f64]) {
+    let n = size::<N>(n);
     let (f, z) = (&f[..n * n], &mut z[..n]);
     for i in 0..n {
         let d = f[i * n + i];

@@ -16,7 +16,7 @@
 //! Coordinates are Rapier's: a revolute joint about −z counts its angle about +z (the caller
 //! converts URDF signs at the door).
 
-use super::dense::{ldl_backward, ldl_factor, ldl_forward, ldl_solve};
+use super::dense::{dot, ldl_backward, ldl_factor, ldl_forward, ldl_solve, size, sized};
 use crate::mechanism::{wrap_angle, JointMotion, Mechanism, Pose2};
 
 /// Pivots below this share of the largest make a loop constraint count as redundant.
@@ -109,14 +109,10 @@ impl Kinematics {
         self.jw.resize(links * n, 0.0);
     }
 
-    /// The coordinates: `N` when it is not 0 (a size the compiler then knows), else `n`.
+    /// The coordinates, fixed at `N` where the caller knows them (see [`sized!`]).
     #[inline(always)]
     fn size<const N: usize>(&self) -> usize {
-        if N == 0 {
-            self.n
-        } else {
-            N
-        }
+        size::<N>(self.n)
     }
 
     #[inline(always)]
@@ -150,24 +146,6 @@ impl Kinematics {
         let [rx, ry] = sub(point, self.com[link]);
         [dot(jx, v) - omega * ry, dot(jy, v) + omega * rx, omega]
     }
-}
-
-/// Calls `$call` with the const parameter set to the mechanism's size `$n` for the sizes the
-/// machines have (the loops over coordinates then unroll), else with 0 (any size).
-macro_rules! sized {
-    ($n:expr, $($call:ident)::+ ($($arg:expr),*)) => {
-        match $n {
-            1 => $($call)::+::<1>($($arg),*),
-            2 => $($call)::+::<2>($($arg),*),
-            3 => $($call)::+::<3>($($arg),*),
-            4 => $($call)::+::<4>($($arg),*),
-            5 => $($call)::+::<5>($($arg),*),
-            6 => $($call)::+::<6>($($arg),*),
-            7 => $($call)::+::<7>($($arg),*),
-            8 => $($call)::+::<8>($($arg),*),
-            _ => $($call)::+::<0>($($arg),*),
-        }
-    };
 }
 
 /// A joint spring (the `<spring>` extension), in Rapier coordinates: force −k·(q − reference).
@@ -443,7 +421,7 @@ impl Dynamics {
     /// Z = L⁻¹·Gᵀ into `y` and S = Zᵀ·D⁻¹·Z factored into `s`.
     #[inline(always)]
     fn factor_schur<const N: usize>(&mut self, n: usize, m: usize) {
-        let n = if N == 0 { n } else { N };
+        let n = size::<N>(n);
         // With M = L·D·Lᵀ and Z = L⁻¹·Gᵀ: S = G·M⁻¹·Gᵀ = Zᵀ·D⁻¹·Z and M⁻¹·Gᵀ·λ = L⁻ᵀ·D⁻¹·Z·λ.
         for r in 0..m {
             let column = &mut self.y[r * n..(r + 1) * n];
@@ -800,8 +778,4 @@ fn velocity_of([vx, vy, _]: [f64; 3]) -> [f64; 2] {
 
 fn sub(a: [f64; 2], b: [f64; 2]) -> [f64; 2] {
     [a[0] - b[0], a[1] - b[1]]
-}
-
-pub(super) fn dot(a: &[f64], b: &[f64]) -> f64 {
-    a.iter().zip(b).map(|(x, y)| x * y).sum()
 }

@@ -95,7 +95,7 @@ impl ExactEngine {
         if let Some(slot) = self.model.mechanism.links.get_mut(link) {
             slot.inertial = Some(inertial);
             self.dynamics.forget();
-            self.tree.set_masses(&self.model.mechanism);
+            self.tree.take_centres_of_mass(&self.model.mechanism);
         }
     }
 

@@ -74,12 +74,12 @@ impl Tree {
             com: Vec::new(),
             ground: Frame::of(&mechanism.zero_pose()[0]),
         };
-        tree.set_masses(mechanism);
+        tree.take_centres_of_mass(mechanism);
         tree
     }
 
     /// Takes the links' centres of mass anew (a plant fault changed one).
-    pub fn set_masses(&mut self, mechanism: &Mechanism) {
+    pub fn take_centres_of_mass(&mut self, mechanism: &Mechanism) {
         self.com = (mechanism.links.iter())
             .map(|link| link.inertial.map_or([0.0; 2], |i| i.centre_of_mass))
             .collect();

@@ -11,6 +11,11 @@ pub const BOUND: Duration = Duration::from_secs(60);
 /// Runs `command` to its end with stdout and stderr captured, killing it and failing the test
 /// if it outlives [`BOUND`] (a hang is a failure, not a stuck CI).
 pub fn finished(command: &mut Command) -> Output {
+    finished_within(command, BOUND)
+}
+
+/// [`finished`] with its own bound, for commands that run long by design.
+pub fn finished_within(command: &mut Command, bound: Duration) -> Output {
     let mut child = command
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
@@ -18,9 +23,13 @@ pub fn finished(command: &mut Command) -> Output {
         .expect("the command starts");
     let start = Instant::now();
     while child.try_wait().expect("wait").is_none() {
-        if start.elapsed() > BOUND {
+        if start.elapsed() > bound {
             child.kill().ok();
-            panic!("{command:?} still running after {BOUND:?}");
+            let output = child.wait_with_output().expect("output");
+            panic!(
+                "{command:?} still running after {bound:?}: {}",
+                String::from_utf8_lossy(&output.stderr)
+            );
         }
         std::thread::sleep(Duration::from_millis(10));
     }

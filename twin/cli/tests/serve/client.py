@@ -14,7 +14,7 @@ import sys
 from asyncua import ua
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent.parent))
-from opcua_connect import connect  # noqa: E402  (the tests' shared helper)
+from opcua_connect import connect, disconnect, final_state  # noqa: E402  (the tests' shared helper)
 
 
 async def names(node):
@@ -57,18 +57,9 @@ async def main(url, machine_name, joint, torque, periods):
         seen["advanced_to_end"] = await machine.call_method(
             f"{ns}:Advance", ua.Variant(1_000_000, ua.VariantType.UInt32)
         )
-        # The run's end is published once the recording is finished, just after Advance returns.
-        state = client.get_node(ua.NodeId("status.state", ns))
-        for _ in range(100):
-            seen["state"] = await state.read_value()
-            if seen["state"] != "running":
-                break
-            await asyncio.sleep(0.01)
+        seen["state"] = await final_state(client, ns)
     finally:
-        try:
-            await client.disconnect()
-        except Exception:  # the server may already be gone at the run's end
-            pass
+        await disconnect(client)
     print(json.dumps(seen))
 
 

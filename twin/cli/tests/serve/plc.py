@@ -18,7 +18,7 @@ import sys
 from asyncua import ua
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent.parent))
-from opcua_connect import connect  # noqa: E402  (the tests' shared helper)
+from opcua_connect import connect, disconnect  # noqa: E402  (the tests' shared helper)
 
 
 async def main(url, machine_name, joint, kp, kd, rate, periods, out):
@@ -43,10 +43,7 @@ async def main(url, machine_name, joint, kp, kd, rate, periods, out):
             history["error"].append(error)
             history["effort"].append(u)
     finally:
-        try:
-            await client.disconnect()
-        except Exception:  # the server may already be gone at the run's end
-            pass
+        await disconnect(client)
     with open(out, "w", encoding="utf-8") as file:
         json.dump(history, file)
 

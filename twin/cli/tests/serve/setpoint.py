@@ -18,7 +18,7 @@ import sys
 from asyncua import ua
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent.parent))
-from opcua_connect import connect  # noqa: E402  (the tests' shared helper)
+from opcua_connect import connect, disconnect, final_state  # noqa: E402  (the tests' shared helper)
 
 SETPOINTS = ["reference", "reference_rate", "reference_acceleration"]
 
@@ -81,17 +81,9 @@ async def main(url, machine_name, joint, block, offsets):
         seen["effort_write"] = await refusal(effort, 1.0)
         seen["nan_write"] = await refusal(setpoints[0], float("nan"))
         await machine.call_method(f"{ns}:Advance", ua.Variant(1_000_000, ua.VariantType.UInt32))
-        state = client.get_node(ua.NodeId("status.state", ns))
-        for _ in range(100):
-            seen["state"] = await state.read_value()
-            if seen["state"] != "running":
-                break
-            await asyncio.sleep(0.01)
+        seen["state"] = await final_state(client, ns)
     finally:
-        try:
-            await client.disconnect()
-        except Exception:  # the server may already be gone at the run's end
-            pass
+        await disconnect(client)
     print(json.dumps(seen))
 
 

@@ -21,9 +21,12 @@ import json
 import sys
 from pathlib import Path
 
-from asyncua import Client, ua
+from asyncua import ua
 from asyncua.crypto.cert_gen import setup_self_signed_certificate
 from cryptography.x509.oid import ExtendedKeyUsageOID
+
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+from opcua_connect import connect, disconnect  # noqa: E402  (the tests' shared helper)
 
 APP_URI = "urn:twin:test:client"
 
@@ -39,24 +42,18 @@ async def certificate(cert_dir):
     return cert, key
 
 
-async def connect(url, security, cert_dir, user, password):
+async def connect_as(url, security, cert_dir, user, password):
     cert, key = await certificate(cert_dir) if security != "None" else (None, None)
-    last = None
-    for _ in range(300):
-        client = Client(url=url, timeout=10)
+
+    async def prepare(client):
         client.application_uri = APP_URI
         if user != "-":
             client.set_user(user)
             client.set_password(password)
-        try:
-            if security != "None":
-                await client.set_security_string(f"Basic256Sha256,{security},{cert},{key}")
-            await client.connect()
-            return client
-        except (OSError, asyncio.TimeoutError) as error:
-            last = error
-            await asyncio.sleep(0.05)
-    raise SystemExit(f"no OPC UA server at {url}: {last!r}")
+        if security != "None":
+            await client.set_security_string(f"Basic256Sha256,{security},{cert},{key}")
+
+    return await connect(url, prepare)
 
 
 async def lockstep(client):
@@ -78,17 +75,14 @@ async def lockstep(client):
 
 async def main(url, security, cert_dir, user, password, action):
     try:
-        client = await connect(url, security, cert_dir, user, password)
+        client = await connect_as(url, security, cert_dir, user, password)
     except (ua.UaError, ua.UaStatusCodeError) as error:
         print(json.dumps({"refused": f"{type(error).__name__}: {error}"}))
         return
     try:
         seen = await lockstep(client) if action == "lockstep" else {"connected": True}
     finally:
-        try:
-            await client.disconnect()
-        except Exception:  # the server may already be gone at the run's end
-            pass
+        await disconnect(client)
     print(json.dumps(seen))
 
 
