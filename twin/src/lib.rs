@@ -72,8 +72,8 @@ pub mod data {
 pub mod calibration {
     pub use crate::fitting::{
         calibrate, compare, Calibration, CalibrationError, CalibrationOptions, Comparison,
-        Estimate, FitParameter, Iteration, Overlay, RunFit, SignalFit, StartStates, Whiteness,
-        DEFAULT_SEGMENT,
+        Estimate, FitParameter, Iteration, Overlay, RunFit, SegmentFit, SignalFit, SignalVerdict,
+        StartStates, Verdict, Whiteness, DEFAULT_SEGMENT, VARIANCE_FITS,
     };
 }
 

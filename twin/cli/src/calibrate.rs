@@ -207,7 +207,7 @@ fn options(
 }
 
 /// The signals' noise σ: the table's, with `--noise NAME=SIGMA` on top.
-fn noise_levels(given: &[String], spec: &CalibrationSpec) -> Result<Vec<(String, f64)>, Failure> {
+pub(crate) fn noise_levels(given: &[String], spec: &CalibrationSpec) -> Result<Vec<(String, f64)>, Failure> {
     let mut noise: Vec<(String, f64)> = spec.noise.clone().into_iter().collect();
     for entry in given {
         let context = format!("--noise {entry}");
@@ -247,28 +247,46 @@ fn number(context: &str, text: &str) -> Result<f64, Failure> {
 
 /// The estimates, the warnings and the fits as text.
 fn report(result: &Calibration) -> String {
-    let mut out = String::from("parameter                                   start         estimate      std error     95 % interval\n");
+    let mut out = format!("{}\n", result.verdict.line());
+    for reason in &result.verdict.reasons {
+        out += &format!("  because {reason}\n");
+    }
+    if !result.verdict.fits {
+        out += "  the intervals below are widened by the residuals' autocorrelation and marked; they are not to be trusted: the model does not explain the data\n";
+        for advice in &result.verdict.advice {
+            out += &format!("  try: {advice}\n");
+        }
+    }
+    for note in &result.notes {
+        out += &format!("note: {note}\n");
+    }
+    out += "parameter                                   start         estimate      std error     95 % interval\n";
     for e in &result.estimates {
         let name = match &e.run {
             Some(run) => format!("{} ({run})", e.key),
             None => e.key.clone(),
         };
         out += &format!(
-            "{name:<42} {:>12.6e} {:>14.8e} {:>12.3e}  [{:.6e}, {:.6e}]{}\n",
+            "{name:<42} {:>12.6e} {:>14.8e} {:>12.3e}  [{:.6e}, {:.6e}]{}{}\n",
             e.start,
             e.estimate,
             e.standard_error,
             e.interval[0],
             e.interval[1],
-            if e.at_bound { "  at bound" } else { "" }
+            if e.at_bound { "  at bound" } else { "" },
+            if e.widened { "  widened, not trusted" } else { "" }
         );
     }
+    let segments = match result.segment {
+        0.0 => format!("{} whole runs", result.segments),
+        s => format!("{} segments of {s} s", result.segments),
+    };
     out += &format!(
-        "{} iterations, {} rollouts, {} segments ({} start states fitted), σ̂² = {:.4}, {}\n",
+        "{} iterations, {} rollouts, {segments} ({} start states fitted in {}), σ̂² = {:.4}, solver {}\n",
         result.iterations.len().saturating_sub(1),
         result.rollouts,
-        result.segments,
         result.start_states,
+        result.coordinates.join(", "),
         result.residual_variance,
         if result.converged {
             "converged"

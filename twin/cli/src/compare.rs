@@ -8,7 +8,7 @@ use crate::fit_figures::{residual_spectra, time_plot, BEFORE, MEASURED, RESIDUAL
 use framework::Registry;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
-use twin::calibration::{compare, Comparison, SignalFit};
+use twin::calibration::{compare, CalibrationOptions, Comparison, SegmentFit, SignalFit, StartStates};
 use twin::data::{parse_renames, DataRate, RunData};
 use twin::recordings::write_figures;
 use twin::{OutputFile, Overrides, Scenario};
@@ -29,6 +29,19 @@ pub struct CompareArgs {
     /// commands.
     #[arg(long)]
     pub closed_loop: bool,
+    /// Replay in segments of this many seconds, each from the start state its data give (as
+    /// `twin calibrate` does); 0: one replay of the whole run [default: calibrate's, 1 s where
+    /// the logged positions place the mechanism, else the whole run].
+    #[arg(long, value_name = "SECONDS")]
+    pub segment: Option<f64>,
+    /// Start states fitted to their segment before comparing: `auto`, `none` (as the data
+    /// place them), or joints separated by commas.
+    #[arg(long, value_name = "auto|none|JOINTS")]
+    pub states: Option<String>,
+    /// A signal's noise σ in SI (`NAME=SIGMA`), weighting the start states' fit, instead of
+    /// the estimate from its data.
+    #[arg(long = "noise", value_name = "NAME=SIGMA")]
+    pub noise: Vec<String>,
     /// Override a scenario value (as `twin run --set`).
     #[arg(long = "set", value_name = "KEY=VALUE")]
     pub set: Vec<String>,
@@ -46,13 +59,64 @@ pub fn run(args: &CompareArgs, registry: &Registry) -> Result<ExitCode, Failure>
     let builder = Scenario::open(&args.scenario)?.overrides(&overrides)?;
     let renames = parse_renames(&args.map)?;
     let data = RunData::read(&args.data, &renames)?;
-    let comparison = compare(&builder, registry, &data, args.closed_loop)?;
+    let spec = (builder.clone().build(registry)?.scenario.calibration).unwrap_or_default();
+    let options = CalibrationOptions {
+        segment: args.segment,
+        states: StartStates::parse(args.states.as_deref().unwrap_or("auto")),
+        closed_loop: args.closed_loop,
+        noise: crate::calibrate::noise_levels(&args.noise, &spec)?,
+        ..CalibrationOptions::default()
+    };
+    let comparison = compare(&builder, registry, &data, &options)?;
     if let Some(folder) = &args.out_dir {
         write_outputs(folder, &comparison)?;
     }
+    for note in &comparison.notes {
+        eprintln!("note: {note}");
+    }
+    println!("{}", comparison.replays());
     print!("{}", table(&comparison.source, &comparison.signals, None));
+    print!("{}", segment_table(&comparison.segments));
     println!("{}", rate_line(&comparison.rate, comparison.period));
     Ok(ExitCode::SUCCESS)
+}
+
+/// Segments listed in full up to this many; beyond, the worst of them.
+const SEGMENTS_LISTED: usize = 12;
+
+/// Per segment, its times and each signal's fit % (the worst segments, where there are many).
+pub fn segment_table(segments: &[SegmentFit]) -> String {
+    if segments.len() < 2 {
+        return String::new();
+    }
+    let worst = |s: &SegmentFit| {
+        (s.signals.iter())
+            .map(|f| f.fit_percent)
+            .fold(f64::INFINITY, f64::min)
+    };
+    let mut listed: Vec<&SegmentFit> = segments.iter().collect();
+    let mut out = String::from("  per segment, fit %:\n");
+    if listed.len() > SEGMENTS_LISTED {
+        listed.sort_by(|a, b| worst(a).total_cmp(&worst(b)));
+        listed.truncate(SEGMENTS_LISTED);
+        listed.sort_by(|a, b| a.start_time.total_cmp(&b.start_time));
+        out = format!(
+            "  per segment, fit % (the {SEGMENTS_LISTED} worst of {}):\n",
+            segments.len()
+        );
+    }
+    for segment in listed {
+        let fits: Vec<String> = (segment.signals.iter())
+            .map(|f| format!("{} {:.3}", f.signal, f.fit_percent))
+            .collect();
+        out += &format!(
+            "    {:>9.3}–{:<9.3} s  {}\n",
+            segment.start_time,
+            segment.end_time,
+            fits.join("  ")
+        );
+    }
+    out
 }
 
 /// The figures per signal as a table: fit %, RMS and largest error, whiteness; with `before`,
@@ -132,7 +196,7 @@ fn write_outputs(folder: &Path, comparison: &Comparison) -> Result<(), Failure> 
     let notes = format!(
         "Twin against {} ({}): measured and replayed signals, the residuals (measured − twin) and their spectra.\n\n{}",
         comparison.source,
-        if comparison.closed_loop { "closed loop on the logged reference" } else { "open loop on the logged commands" },
+        comparison.replays(),
         table(&comparison.source, &comparison.signals, None)
     );
     write_figures(

@@ -34,7 +34,11 @@ pub fn compare<'py>(
     let renames = parse_renames(&renamed(map)?).map_err(from_data)?;
     let comparison = py.detach(|| {
         let run = RunData::read(data, &renames)?;
-        calibration::compare(builder, &controllers::builtin(), &run, closed_loop)
+        let options = calibration::CalibrationOptions {
+            closed_loop,
+            ..Default::default()
+        };
+        calibration::compare(builder, &controllers::builtin(), &run, &options)
     });
     let comparison = comparison.map_err(from_calibration)?;
     let dict = PyDict::new(py);

@@ -10,16 +10,21 @@
 
 mod check;
 mod compare;
+mod local_fit;
 mod metrics;
 mod problem;
 mod replay;
 mod report;
+mod segments;
 mod solve;
+mod start;
+mod verdict;
 
-pub use compare::{compare, Comparison, Overlay};
+pub use compare::{compare, Comparison, Overlay, SegmentFit};
 pub use metrics::{SignalFit, Whiteness};
 pub use report::{calibrate, Calibration, Estimate, RunFit};
 pub use solve::Iteration;
+pub use verdict::{SignalVerdict, Verdict, VARIANCE_FITS};
 
 use crate::run::TwinError;
 use crate::run_data::DataError;
@@ -73,10 +78,10 @@ pub struct FitParameter {
     pub per_run: bool,
 }
 
-/// Segment length where the data allow segments, s: long enough to excite inertia and damping, short enough that a
-/// replay with parameters tens of percent off stays near its run (a Whitworth replayed open
-/// loop over 3 s from nominal values stalls in a local minimum; in 0.5–1 s segments it
-/// converges).
+/// Segment length where the data place the mechanism, s: long enough to excite inertia and
+/// damping, short enough that a replay with parameters tens of percent off stays near its run
+/// (a Whitworth replayed open loop over 3 s from nominal values stalls in a local minimum; in
+/// 0.5–1 s segments it converges).
 pub const DEFAULT_SEGMENT: f64 = 1.0;
 
 impl FitParameter {
@@ -96,7 +101,8 @@ impl FitParameter {
 /// Which joints' start states a calibration fits per segment, beside the parameters.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub enum StartStates {
-    /// Every measured joint of a tree; the actuated ones of a mechanism with closed loops.
+    /// Every independent coordinate the logged positions place (a linkage's crank, every joint
+    /// of a tree).
     #[default]
     Automatic,
     /// None: each segment starts where its first samples say.
@@ -128,8 +134,8 @@ pub struct CalibrationOptions {
     pub noise: Vec<(String, f64)>,
     /// Segments of this many seconds, each simulated from its own start state (multiple
     /// shooting), so that an open-loop replay never drifts far from its run; 0: each run
-    /// whole. `None`: [`DEFAULT_SEGMENT`] where the data give every moving joint's position
-    /// (a segment can then start where its run is), else whole runs.
+    /// whole. `None`: [`DEFAULT_SEGMENT`] where the logged positions place the mechanism (a
+    /// segment can then start where its run is), else whole runs, said in a note.
     pub segment: Option<f64>,
     /// The start states fitted per segment.
     pub states: StartStates,

@@ -1,21 +1,22 @@
 //! A calibration laid out: the unknowns (shared parameters, per-run parameters and each
-//! segment's start state) with their scales and bounds, the segments, the fitted signals and
-//! their noise; the weighted residuals and their forward-difference Jacobian, rolled out in
-//! parallel.
+//! segment's start state in the mechanism's independent coordinates) with their scales and
+//! bounds, the segments, the fitted signals and their noise; the weighted residuals at the
+//! data's own rows and their forward-difference Jacobian, rolled out in parallel.
 
 use super::metrics::noise_level;
 use super::replay::{PlantShape, Replayer, Segment};
-use super::DEFAULT_SEGMENT;
+use super::segments::{lay_out, Setting};
+use super::start::{Assembly, Placement, Probe};
 use super::{parallel, thread_count, CalibrationError, CalibrationOptions, StartStates};
-use crate::run::Simulator;
+use crate::run::{Simulator, Twin};
 use crate::run_data::{RunData, Trace};
 use crate::scenario::ScenarioBuilder;
 use framework::Registry;
 use nalgebra::DMatrix;
+use std::ops::Range;
 use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::{Condvar, Mutex};
 
-/// Fewest samples a segment may have: a start state and its first moves.
-const MIN_SEGMENT_SAMPLES: usize = 10;
 /// Forward-difference step, relative to an unknown's scale.
 const DIFFERENCE_STEP: f64 = 1e-6;
 
@@ -42,6 +43,9 @@ pub struct Unknown {
     pub bounds: [f64; 2],
     /// Its size: steps and the solver's scaling are relative to it.
     pub scale: f64,
+    /// For a segment's start state, its place in the segment's reduced state (the independent
+    /// coordinates' positions, then velocities).
+    pub coordinate: Option<usize>,
 }
 
 /// The calibration's data and unknowns (see the module doc).
@@ -54,10 +58,55 @@ pub struct Problem<'a> {
     /// Per fitted signal, the noise σ its residuals are divided by, SI.
     pub sigma: Vec<f64>,
     pub unknowns: Vec<Unknown>,
-    /// Per segment, its start state as the data give it (the states not fitted stay there).
-    pub starts: Vec<Vec<(String, f64)>>,
+    /// Per segment, where the data place the mechanism at its begin (the coordinates not fitted
+    /// stay there); `None`: the scenario's initial state.
+    pub starts: Vec<Option<Placement>>,
+    /// Segment length, s; 0: whole runs.
+    pub length: f64,
+    /// What the layout decided that the user should hear (a run replayed whole, and why).
+    pub notes: Vec<String>,
+    /// The independent coordinates' joints.
+    pub coordinates: Vec<String>,
+    /// Values set in every segment besides the unknowns (parameters held while the start states
+    /// are fitted alone).
+    pub held: Vec<(String, f64)>,
+    /// Per segment, the data rows it compares (indices into its run's rows).
+    observations: Vec<Range<usize>>,
+    assemblies: Pool,
     threads: usize,
     rollouts: AtomicUsize,
+}
+
+/// Assemblies lent to the threads that roll out, one at a time each.
+struct Pool {
+    free: Mutex<Vec<Assembly>>,
+    returned: Condvar,
+}
+
+impl Pool {
+    fn new(assemblies: Vec<Assembly>) -> Self {
+        Self {
+            free: Mutex::new(assemblies),
+            returned: Condvar::new(),
+        }
+    }
+
+    /// `job` on an assembly of the pool (waiting for one to be free).
+    fn with<T>(&self, job: impl FnOnce(&mut Assembly) -> T) -> T {
+        let mut free = self.free.lock().unwrap_or_else(|p| p.into_inner());
+        let mut assembly = loop {
+            match free.pop() {
+                Some(assembly) => break assembly,
+                None => free = self.returned.wait(free).unwrap_or_else(|p| p.into_inner()),
+            }
+        };
+        drop(free);
+        let result = job(&mut assembly);
+        let mut free = self.free.lock().unwrap_or_else(|p| p.into_inner());
+        free.push(assembly);
+        self.returned.notify_one();
+        result
+    }
 }
 
 /// The replayer of a scenario: its sensors made ideal apart from gain, bias and delay (noise
@@ -81,6 +130,27 @@ pub fn replayer<'a>(
         shape,
         closed_loop,
     })
+}
+
+impl Replayer<'_> {
+    /// The scenario's mechanism as an assembly, to place it where the data say.
+    pub fn assembly(&self) -> Result<Assembly, CalibrationError> {
+        let loaded = self.base.clone().build(self.registry)?;
+        let parts = Twin::new(loaded)?.start_parts().map_err(|e| match e {
+            crate::run::LinearizeError::Twin(e) => CalibrationError::Twin(e),
+            other => CalibrationError::Options(other.to_string()),
+        })?;
+        Ok(Assembly::new(&parts))
+    }
+
+    /// A plant signal's sensor gain and bias in the scenario (1 and 0 without a sensor).
+    pub fn sensors(&self) -> impl Fn(&str) -> (f64, f64) + '_ {
+        move |name: &str| {
+            let gain = self.base.number(&format!("sensors.\"{name}\".gain"));
+            let bias = self.base.number(&format!("sensors.\"{name}\".bias"));
+            (gain.unwrap_or(1.0), bias.unwrap_or(0.0))
+        }
+    }
 }
 
 /// `data` bound to the plant; open loop, every actuator's command must be logged.
@@ -155,118 +225,96 @@ fn signal_names(shape: &PlantShape) -> String {
     framework::shortened(&names.join(", "), 300)
 }
 
-/// Per fitted signal, the noise σ: given, or estimated from the data pooled over the runs;
-/// never below a billionth of the signal's size, so noise-free data still weigh finitely.
-pub fn noise(
-    shape: &PlantShape,
-    traces: &[Trace],
-    outputs: &[usize],
-    given: &[(String, f64)],
-) -> Vec<f64> {
-    outputs
-        .iter()
-        .map(|&i| {
-            let name = &shape.columns.signals[i].0;
-            if let Some((_, sigma)) = given.iter().find(|(n, _)| n == name) {
-                return *sigma;
-            }
-            let series = traces.iter().filter_map(|t| t.measured[i].as_deref());
-            let variance = series.clone().map(|v| noise_level(v).powi(2)).sum::<f64>()
-                / traces.len().max(1) as f64;
-            let size = series.flatten().fold(0.0f64, |m, v| m.max(v.abs()));
-            variance.sqrt().max(1e-9 * size).max(1e-15)
-        })
-        .collect()
-}
-
-/// The segment length asked for, or the default: [`DEFAULT_SEGMENT`] where every run logs every
-/// moving joint's position, else whole runs (a segment could not start where its run is).
-pub fn segment_length(shape: &PlantShape, traces: &[Trace], asked: Option<f64>) -> f64 {
-    asked.unwrap_or_else(|| {
-        let placed = |joint: &String| {
-            let index = shape.signal(&format!("{joint}.position"));
-            index.is_some_and(|i| traces.iter().all(|t| t.measured[i].is_some()))
-        };
-        match shape.joints.iter().all(placed) {
-            true => DEFAULT_SEGMENT,
-            false => 0.0,
-        }
-    })
-}
-
-/// The segments of the runs: stretches of `seconds` (a last stretch shorter than half of one
-/// joins the one before), or whole runs for 0.
-pub fn segments(
-    traces: &[Trace],
-    seconds: f64,
-    period: f64,
-) -> Result<Vec<Segment>, CalibrationError> {
-    let mut segments = Vec::new();
-    for (run, trace) in traces.iter().enumerate() {
-        let length = match seconds {
-            0.0 => trace.samples,
-            s if s.is_finite() && s > 0.0 => ((s / period).round() as usize).max(1),
-            s => {
-                let reason =
-                    format!("--segment {s}: must be a duration > 0 s, or 0 for whole runs");
-                return Err(CalibrationError::Options(reason));
-            }
-        };
-        if trace.samples < MIN_SEGMENT_SAMPLES {
-            return Err(CalibrationError::Options(format!(
-                "{}: {} samples at the control period {period} s; a fit needs at least {MIN_SEGMENT_SAMPLES}: give a longer run",
-                trace.source, trace.samples
-            )));
-        }
-        let length = length.min(trace.samples);
-        if length < MIN_SEGMENT_SAMPLES {
-            return Err(CalibrationError::Options(format!(
-                "--segment: {length} samples per segment at the control period {period} s; give at least {MIN_SEGMENT_SAMPLES}"
-            )));
-        }
-        let mut start = 0;
-        while start < trace.samples {
-            let mut len = length.min(trace.samples - start);
-            if trace.samples - start - len < length / 2 {
-                len = trace.samples - start;
-            }
-            // A tenth of a segment settles the machine's own states (a drive's current lag is
-            // well under a millisecond; the lead is 0.1 s of a 1 s segment).
-            let lead = start.min((length / 10).max(MIN_SEGMENT_SAMPLES));
-            segments.push(Segment {
-                run,
-                start,
-                len,
-                lead,
-            });
-            start += len;
-        }
+/// A plant signal's noise σ: given, or estimated from the rows the runs log, pooled over the
+/// runs; never below a billionth of the signal's size, so noise-free data still weigh finitely.
+pub fn noise_of(shape: &PlantShape, traces: &[Trace], i: usize, given: &[(String, f64)]) -> f64 {
+    let name = &shape.columns.signals[i].0;
+    if let Some((_, sigma)) = given.iter().find(|(n, _)| n == name) {
+        return *sigma;
     }
-    Ok(segments)
+    let series: Vec<&[f64]> = (traces.iter())
+        .filter_map(|t| t.observed(i).map(|(_, values)| values))
+        .collect();
+    let variance =
+        series.iter().map(|v| noise_level(v).powi(2)).sum::<f64>() / series.len().max(1) as f64;
+    let size = (series.iter().copied().flatten()).fold(0.0f64, |m, v| m.max(v.abs()));
+    variance.sqrt().max(1e-9 * size).max(1e-15)
 }
 
-/// The joints whose start states are fitted.
-pub fn state_joints(shape: &PlantShape, states: &StartStates) -> Result<Vec<String>, String> {
+/// The start states fitted: every coordinate the data place (`auto`), none, or the joints
+/// named, each an independent coordinate.
+fn fitted_coordinates(
+    coordinates: &[String],
+    placed: &[bool],
+    states: &StartStates,
+) -> Result<Vec<usize>, CalibrationError> {
     match states {
         StartStates::Fixed => Ok(Vec::new()),
-        StartStates::Automatic if shape.has_loops => Ok(shape.actuated.clone()),
-        StartStates::Automatic => Ok(shape.joints.clone()),
+        StartStates::Automatic => Ok((0..coordinates.len()).filter(|&c| placed[c]).collect()),
         StartStates::Joints(joints) => joints
             .iter()
-            .map(|joint| match shape.joints.contains(joint) {
-                true => Ok(joint.clone()),
-                false => Err(format!(
-                    "--states {joint}: no such moving joint (known: {})",
-                    shape.joints.join(", ")
-                )),
+            .map(|joint| {
+                coordinates.iter().position(|c| c == joint).ok_or_else(|| {
+                    CalibrationError::Options(format!(
+                        "--states {joint}: not one of the mechanism's independent coordinates ({}); the others follow from them through the loops",
+                        coordinates.join(", ")
+                    ))
+                })
             })
             .collect(),
     }
 }
 
+/// The start-state unknowns: per placed segment, the fitted coordinates' positions and
+/// velocities.
+fn state_unknowns(
+    traces: &[Trace],
+    layout: &super::segments::Layout,
+    coordinates: &[String],
+    fitted: &[usize],
+) -> Vec<Unknown> {
+    let k = coordinates.len();
+    let mut unknowns = Vec::new();
+    for (index, (segment, start)) in layout.segments.iter().zip(&layout.starts).enumerate() {
+        let Some(placement) = start else { continue };
+        let trace = &traces[segment.run];
+        let at = trace.start_time + segment.begin() as f64 * trace.period;
+        for &c in fitted {
+            for (offset, what) in [(c, "position"), (k + c, "velocity")] {
+                let key = format!("initial.{}.{what}", coordinates[c]);
+                let value = placement.x[offset];
+                unknowns.push(Unknown {
+                    label: format!("{key} at t = {at} s of {}", trace.source),
+                    key,
+                    scope: Scope::Segment(index),
+                    start: value,
+                    bounds: [f64::NEG_INFINITY, f64::INFINITY],
+                    scale: value.abs().max(1e-3),
+                    coordinate: Some(offset),
+                });
+            }
+        }
+    }
+    unknowns
+}
+
+/// The rows of a segment's run that it compares: those within its samples.
+fn observations(trace: &Trace, segment: &Segment) -> Range<usize> {
+    let (first, last) = (segment.start, segment.start + segment.len - 1);
+    match &trace.rows {
+        None => first..last + 1,
+        Some(rows) => {
+            let begin = rows.partition_point(|&p| p < first as f64 - 1e-9);
+            let end = rows.partition_point(|&p| p <= last as f64 + 1e-9);
+            begin..end
+        }
+    }
+}
+
 impl<'a> Problem<'a> {
     /// Lays a calibration out: `unknowns` are the parameters (shared and per run) made by the
-    /// caller; the start states of `options.states` are appended per segment.
+    /// caller; the runs are cut into segments, each placed where its data say, and the start
+    /// states of `options.states` are appended per segment, in the independent coordinates.
     pub fn new(
         replayer: Replayer<'a>,
         traces: Vec<Trace>,
@@ -275,43 +323,53 @@ impl<'a> Problem<'a> {
     ) -> Result<Self, CalibrationError> {
         let shape = &replayer.shape;
         let outputs = outputs(shape, &traces, &options.signals)?;
-        let sigma = noise(shape, &traces, &outputs, &options.noise);
-        let length = segment_length(shape, &traces, options.segment);
-        let segments = segments(&traces, length, shape.period)?;
-        let joints = state_joints(shape, &options.states).map_err(CalibrationError::Options)?;
-        let starts: Vec<Vec<(String, f64)>> = segments
-            .iter()
-            .map(|s| replayer.start_state(&traces[s.run], s.begin()))
+        let noise_of = |i: usize| noise_of(shape, &traces, i, &options.noise);
+        let sigma: Vec<f64> = outputs.iter().map(|&i| noise_of(i)).collect();
+        let threads = thread_count(options.threads);
+        let mut assemblies: Vec<Assembly> = (0..=threads)
+            .map(|_| replayer.assembly())
+            .collect::<Result<_, _>>()?;
+        let assembly = &mut assemblies[0];
+        let probes: Vec<[Vec<Probe>; 2]> = {
+            let sensors = replayer.sensors();
+            (traces.iter())
+                .map(|t| assembly.probes(shape, t, &|name| sensors(name), &noise_of))
+                .collect()
+        };
+        let starting: Vec<(String, f64)> = (parameters.iter())
+            .map(|u| (u.key.clone(), u.start))
             .collect();
+        let setting = Setting {
+            asked: options.segment,
+            probes: &probes,
+            outputs: &outputs,
+            sigma: &sigma,
+            parameters: &starting,
+        };
+        let layout = lay_out(&replayer, assembly, &traces, &setting)?;
+        let coordinates = assembly.coordinate_names();
+        let fitted = fitted_coordinates(&coordinates, &layout.placed, &options.states)?;
         let mut unknowns = parameters;
-        for (index, (segment, start)) in segments.iter().zip(&starts).enumerate() {
-            let trace = &traces[segment.run];
-            let at = trace.start_time + segment.begin() as f64 * trace.period;
-            for (key, value) in start {
-                let joint = key.split('.').nth(1).unwrap_or_default();
-                if !joints.iter().any(|j| j == joint) {
-                    continue;
-                }
-                unknowns.push(Unknown {
-                    label: format!("{key} at t = {at} s of {}", trace.source),
-                    key: key.clone(),
-                    scope: Scope::Segment(index),
-                    start: *value,
-                    bounds: [f64::NEG_INFINITY, f64::INFINITY],
-                    scale: value.abs().max(1e-3),
-                });
-            }
-        }
+        unknowns.extend(state_unknowns(&traces, &layout, &coordinates, &fitted));
+        let observations = (layout.segments.iter())
+            .map(|s| observations(&traces[s.run], s))
+            .collect();
         Ok(Self {
-            threads: thread_count(options.threads),
+            threads,
             rollouts: AtomicUsize::new(0),
             replayer,
             traces,
-            segments,
+            segments: layout.segments,
+            starts: layout.starts,
+            length: layout.length,
+            notes: layout.notes,
+            coordinates,
+            held: Vec::new(),
+            observations,
             outputs,
             sigma,
             unknowns,
-            starts,
+            assemblies: Pool::new(assemblies),
         })
     }
 
@@ -325,9 +383,9 @@ impl<'a> Problem<'a> {
         self.rollouts.load(Ordering::Relaxed)
     }
 
-    /// Residuals in a segment: outputs × samples.
+    /// Residuals in a segment: outputs × the data rows it compares.
     pub fn rows(&self, segment: usize) -> usize {
-        self.outputs.len() * self.segments[segment].len
+        self.outputs.len() * self.observations[segment].len()
     }
 
     /// Whether unknown `j` acts on segment `s`.
@@ -339,44 +397,81 @@ impl<'a> Problem<'a> {
         }
     }
 
-    /// Drops every segment but the first, and the unknowns of the others.
-    pub fn keep_first_segment(&mut self) {
-        self.segments.truncate(1);
-        self.starts.truncate(1);
-        (self.unknowns)
-            .retain(|u| matches!(u.scope, Scope::Shared | Scope::Run(0) | Scope::Segment(0)));
-    }
-
-    /// The scenario values of segment `s` at `theta`: its data start state, then the unknowns
-    /// acting on it.
-    pub fn values(&self, theta: &[f64], s: usize) -> Vec<(String, f64)> {
-        let mut values = self.starts[s].clone();
+    /// The scenario values of segment `s` at `theta`: its start (where the data place it, with
+    /// its fitted coordinates from `theta`, the loops closed), then the parameters acting on it.
+    pub fn values(&self, theta: &[f64], s: usize) -> Result<Vec<(String, f64)>, CalibrationError> {
+        let mut values = match &self.starts[s] {
+            None => Vec::new(),
+            Some(placement) => {
+                let mut x = placement.x.clone();
+                for (j, unknown) in self.unknowns.iter().enumerate() {
+                    if let (Some(c), Scope::Segment(t)) = (unknown.coordinate, unknown.scope) {
+                        if t == s {
+                            x[c] = theta[j];
+                        }
+                    }
+                }
+                let anchor = &placement.anchor;
+                let closed = self.assemblies.with(|a| a.initial_values(anchor, &x));
+                closed.map_err(|e| {
+                    let segment = self.segments[s];
+                    let trace = &self.traces[segment.run];
+                    CalibrationError::Diverged {
+                        run: trace.source.clone(),
+                        time: trace.start_time + segment.begin() as f64 * trace.period,
+                        reason: format!("the start state does not close the loops: {e}"),
+                    }
+                })?
+            }
+        };
+        values.extend(self.held.iter().cloned());
         for (j, unknown) in self.unknowns.iter().enumerate() {
-            if self.affects(j, s) {
+            if unknown.coordinate.is_none() && self.affects(j, s) {
                 values.push((unknown.key.clone(), theta[j]));
             }
         }
-        values
+        Ok(values)
     }
 
-    /// The fitted signals simulated over segment `s` at `theta`, one row per signal.
+    /// The fitted signals simulated over segment `s` at `theta`, one row per signal, one value
+    /// per control period from the segment's start.
     pub fn simulate(&self, theta: &[f64], s: usize) -> Result<Vec<Vec<f64>>, CalibrationError> {
         self.rollouts.fetch_add(1, Ordering::Relaxed);
         let segment = self.segments[s];
         let trace = &self.traces[segment.run];
-        (self.replayer).simulate(trace, segment, &self.values(theta, s), &self.outputs)
+        let values = self.values(theta, s)?;
+        (self.replayer).simulate(trace, segment, &values, &self.outputs)
     }
 
-    /// Segment `s`'s residuals at `theta`, each divided by its signal's noise: signal-major.
-    fn residual(&self, theta: &[f64], s: usize) -> Result<Vec<f64>, CalibrationError> {
-        let simulated = self.simulate(theta, s)?;
+    /// The data rows segment `s` compares, for output `o`: each row's place within the segment
+    /// (in samples from its start) and its value.
+    pub fn observed(&self, s: usize, o: usize) -> impl Iterator<Item = (f64, f64)> + '_ {
         let segment = self.segments[s];
         let trace = &self.traces[segment.run];
+        let i = self.outputs[o];
+        let rows = self.observations[s].clone();
+        let places = trace.rows.as_deref();
+        let values = match places {
+            None => trace.measured[i].as_deref(),
+            Some(_) => trace.logged[i].as_deref(),
+        }
+        .unwrap_or_default();
+        rows.map(move |r| {
+            let place = places.map_or(r as f64, |p| p[r]);
+            (place - segment.start as f64, values[r])
+        })
+    }
+
+    /// Segment `s`'s residuals at `theta`, each divided by its signal's noise: signal-major, at
+    /// the data's own rows (the twin interpolated between its samples where a row falls between
+    /// two).
+    fn residual(&self, theta: &[f64], s: usize) -> Result<Vec<f64>, CalibrationError> {
+        let simulated = self.simulate(theta, s)?;
         let mut residual = Vec::with_capacity(self.rows(s));
-        for ((row, &i), sigma) in simulated.iter().zip(&self.outputs).zip(&self.sigma) {
-            let measured = trace.measured[i].as_deref().unwrap_or_default();
-            let measured = &measured[segment.start..segment.start + segment.len];
-            residual.extend(measured.iter().zip(row).map(|(y, s)| (y - s) / sigma));
+        for (o, (row, sigma)) in simulated.iter().zip(&self.sigma).enumerate() {
+            for (place, measured) in self.observed(s, o) {
+                residual.push((measured - at_place(row, place)) / sigma);
+            }
         }
         Ok(residual)
     }
@@ -432,5 +527,16 @@ impl<'a> Problem<'a> {
             }
         }
         Ok(jacobian)
+    }
+}
+
+/// A sampled series' value at `place` (in samples, fractional between two): linear between
+/// the samples around it.
+pub fn at_place(series: &[f64], place: f64) -> f64 {
+    let k = (place.floor().max(0.0) as usize).min(series.len().saturating_sub(1));
+    let weight = place - k as f64;
+    match series.get(k + 1) {
+        Some(next) if weight > 0.0 => series[k] + weight * (next - series[k]),
+        _ => series.get(k).copied().unwrap_or(f64::NAN),
     }
 }

@@ -16,12 +16,8 @@ pub struct PlantShape {
     pub columns: PlantColumns,
     /// The movable joints.
     pub joints: Vec<String>,
-    /// The actuated joints.
-    pub actuated: Vec<String>,
     /// The reference signals' indices among the plant's signals.
     pub reference: Range<usize>,
-    /// Whether the mechanism closes loops (its joints are then not all independent).
-    pub has_loops: bool,
     /// Control period, s.
     pub period: f64,
 }
@@ -36,16 +32,7 @@ impl PlantShape {
                 .iter()
                 .map(|(name, _)| name.to_string())
                 .collect(),
-            actuated: simulator
-                .actuators()
-                .iter()
-                .map(|a| a.joint.clone())
-                .collect(),
             reference: simulator.reference_signals(),
-            has_loops: simulator
-                .diagnostic_specs()
-                .iter()
-                .any(|s| s.name.starts_with("loop_gap/")),
             period: simulator.scenario().control_period(),
         }
     }
@@ -91,30 +78,6 @@ pub struct Replayer<'a> {
 }
 
 impl Replayer<'_> {
-    /// The start state of a segment as its first samples give it: per joint with a measured
-    /// position, `initial.<joint>.position` and `.velocity` (measured, or the position's first
-    /// difference). Noise on them is the solve's to average out, where the states are fitted.
-    pub fn start_state(&self, trace: &Trace, start: usize) -> Vec<(String, f64)> {
-        let mut state = Vec::new();
-        for joint in &self.shape.joints {
-            let logged = |name: String| {
-                let index = self.shape.signal(&name)?;
-                trace.measured[index].as_deref()
-            };
-            let Some(positions) = logged(format!("{joint}.position")) else {
-                continue;
-            };
-            let velocity = match (logged(format!("{joint}.velocity")), &positions[start..]) {
-                (Some(rates), _) => rates[start],
-                (None, [now, next, ..]) => (next - now) / trace.period,
-                (None, _) => 0.0,
-            };
-            state.push((format!("initial.{joint}.position"), positions[start]));
-            state.push((format!("initial.{joint}.velocity"), velocity));
-        }
-        state
-    }
-
     /// The plant signals `outputs` simulated over `segment` with `values` set (later entries
     /// win), one row per sample.
     pub fn simulate(

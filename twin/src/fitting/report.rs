@@ -4,11 +4,12 @@
 //! calibrated scenario.
 
 use super::check;
-use super::compare::rate_json;
-use super::metrics::{signal_fit, t_quantile_95, SignalFit};
+use super::compare::{fit_states, rate_json, replay, Overlay, RunReplay, SegmentFit};
+use super::metrics::{t_quantile_95, SignalFit};
 use super::problem::{self, Problem, Scope, Unknown};
 use super::solve::{solve, Iteration, Linearised, Solution};
-use super::{CalibrationError, CalibrationOptions, FitParameter, StartStates};
+use super::verdict::{judge, sandwich, Verdict};
+use super::{CalibrationError, CalibrationOptions, FitParameter};
 use crate::mechanism::Mechanism;
 use crate::plant::PlantValues;
 use crate::run_data::{DataRate, RunData, Trace};
@@ -38,6 +39,9 @@ pub struct Estimate {
     pub bounds: [f64; 2],
     /// Whether it ended at a bound (its interval then means little).
     pub at_bound: bool,
+    /// Whether its interval was widened because the model does not fit the data (it is then
+    /// not to be trusted: the estimate may be biased).
+    pub widened: bool,
 }
 
 /// One run's fit, before and after the calibration.
@@ -55,6 +59,8 @@ pub struct RunFit {
     pub after: Vec<SignalFit>,
     /// Per fitted signal: name, SI unit, measured, twin before, twin after.
     pub overlays: Vec<(String, String, [Vec<f64>; 3])>,
+    /// Per segment, per fitted signal, with the fitted values.
+    pub segments: Vec<SegmentFit>,
     /// Sample k is at `start_time + k·period`, s.
     pub start_time: f64,
     /// Control period, s.
@@ -64,6 +70,14 @@ pub struct RunFit {
 /// What a calibration found.
 #[derive(Debug, Clone)]
 pub struct Calibration {
+    /// Whether the fitted model explains the data (apart from whether the solve converged).
+    pub verdict: Verdict,
+    /// What the layout decided that the user should hear (a run replayed whole, and why).
+    pub notes: Vec<String>,
+    /// Segment length, s; 0: whole runs.
+    pub segment: f64,
+    /// The mechanism's independent coordinates, in which the start states are fitted.
+    pub coordinates: Vec<String>,
     /// The parameters (shared, then per run), without the segments' start states.
     pub estimates: Vec<Estimate>,
     /// The estimates' correlation matrix, in their order.
@@ -121,34 +135,31 @@ pub fn calibrate(
         .map(|run| problem::bind(&replayer, run, min_samples))
         .collect::<Result<Vec<Trace>, _>>()?;
     let mut problem = Problem::new(replayer, traces, options, parameters)?;
-    let rows: usize = (0..problem.segments.len()).map(|s| problem.rows(s)).sum();
-    check::samples(rows, problem.unknowns.len())?;
+    let (first, mut warnings) = checked(&mut problem)?;
     let start = problem.start();
-    let residuals = problem.residuals(&start)?;
-    let mut jacobian = problem.jacobian(&start, &residuals)?;
-    let idle = check::idle_states(&problem.unknowns, &jacobian);
-    for &j in idle.iter().rev() {
-        problem.unknowns.remove(j);
-    }
-    jacobian = jacobian.remove_columns_at(&idle);
-    let start = problem.start();
-    let mut warnings = check::identifiable(&problem.unknowns, &jacobian)?;
-    let first = Some((residuals, jacobian));
-    let (best_start, solution, iterations) = solve_all(&problem, options, first, progress)?;
+    let (best_start, solution, iterations) = solve_all(&problem, options, Some(first), progress)?;
     if !solution.converged {
         warnings.push(format!(
             "the solve stopped after {} iterations without meeting its tolerance; raise --max-iterations or check the starts",
             options.max_iterations
         ));
     }
-    let statistics = Statistics::of(&problem, &solution);
+    let runs = run_fits(&mut problem, &start, &solution.theta)?;
+    let mut statistics = Statistics::of(&problem, &solution);
+    let verdict = judge(&problem, &solution.residuals, statistics.variance, &worst(&runs));
+    if !verdict.fits {
+        statistics.widen(&problem, &solution);
+    }
     let estimates = estimates(&problem, &solution.theta, &statistics);
     warnings.extend(bound_warnings(&estimates));
     warnings.extend(precision_warnings(&estimates));
-    let runs = run_fits(&problem, &start, &solution.theta)?;
     let validation = validation_fits(builder, registry, validate, options, &estimates)?;
     let calibrated_toml = calibrated(builder, registry, data, &estimates)?;
     Ok(Calibration {
+        verdict,
+        notes: problem.notes.clone(),
+        segment: problem.length,
+        coordinates: problem.coordinates.clone(),
         correlation: statistics.correlation(&problem),
         estimates,
         runs,
@@ -169,6 +180,38 @@ pub fn calibrate(
         rollouts: problem.rollouts(),
         calibrated_toml,
     })
+}
+
+/// The check before the solve: enough data, start states without effect dropped, the
+/// parameters' identifiability (refused or warned); the residuals and Jacobian at the start.
+fn checked(problem: &mut Problem) -> Result<(Linearised, Vec<String>), CalibrationError> {
+    let rows: usize = (0..problem.segments.len()).map(|s| problem.rows(s)).sum();
+    check::samples(rows, problem.unknowns.len())?;
+    let start = problem.start();
+    let residuals = problem.residuals(&start)?;
+    let mut jacobian = problem.jacobian(&start, &residuals)?;
+    let idle = check::idle_states(&problem.unknowns, &jacobian);
+    for &j in idle.iter().rev() {
+        problem.unknowns.remove(j);
+    }
+    jacobian = jacobian.remove_columns_at(&idle);
+    let warnings = check::identifiable(&problem.unknowns, &jacobian)?;
+    Ok(((residuals, jacobian), warnings))
+}
+
+/// Per fitted signal, its figures on the run where it fits worst.
+fn worst(runs: &[RunFit]) -> Vec<SignalFit> {
+    let mut worst: Vec<SignalFit> = Vec::new();
+    for run in runs {
+        for (o, fit) in run.after.iter().enumerate() {
+            match worst.get_mut(o) {
+                None => worst.push(fit.clone()),
+                Some(w) if fit.fit_percent < w.fit_percent => *w = fit.clone(),
+                Some(_) => {}
+            }
+        }
+    }
+    worst
 }
 
 /// The parameters as unknowns: their starts (given, the scenario's, the URDF's or a sensor's
@@ -211,6 +254,7 @@ fn unknowns(
             start,
             bounds,
             scale,
+            coordinate: None,
         };
         if parameter.per_run {
             for (run, file) in data.iter().enumerate() {
@@ -349,6 +393,8 @@ struct Statistics {
     variance: f64,
     dof: usize,
     covariance: DMatrix<f64>,
+    /// Whether the covariance was widened (the model does not fit).
+    widened: bool,
 }
 
 impl Statistics {
@@ -379,7 +425,28 @@ impl Statistics {
             variance,
             dof,
             covariance,
+            widened: false,
         }
+    }
+
+    /// Widens the covariance to the Newey–West sandwich where that is larger (per unknown), for
+    /// residuals that are not the noise alone.
+    fn widen(&mut self, problem: &Problem, solution: &Solution) {
+        self.widened = true;
+        let Some(sandwich) = sandwich(problem, &solution.residuals, &solution.jacobian) else {
+            return;
+        };
+        let p = self.covariance.nrows();
+        let factor: Vec<f64> = (0..p)
+            .map(|i| {
+                let ratio = sandwich[(i, i)] / self.covariance[(i, i)];
+                match ratio.is_finite() {
+                    true => ratio.max(1.0).sqrt(),
+                    false => 1.0,
+                }
+            })
+            .collect();
+        self.covariance = DMatrix::from_fn(p, p, |i, k| self.covariance[(i, k)] * factor[i] * factor[k]);
     }
 
     /// The correlations among the parameters (not the start states).
@@ -422,6 +489,7 @@ fn estimates(problem: &Problem, theta: &[f64], statistics: &Statistics) -> Vec<E
                 interval: [theta[j] - t * standard_error, theta[j] + t * standard_error],
                 bounds: u.bounds,
                 at_bound: near(u.bounds[0]) || near(u.bounds[1]),
+                widened: statistics.widened,
             }
         })
         .collect()
@@ -431,7 +499,7 @@ fn bound_warnings(estimates: &[Estimate]) -> Vec<String> {
     (estimates.iter().filter(|e| e.at_bound))
         .map(|e| {
             format!(
-                "{} ended at its bound {} (bounds [{}, {}]): the data want it beyond; its interval is not meaningful",
+                "{} ended at its bound {} (bounds [{}, {}]): the solve cannot tell whether the data want it there or beyond; its interval is not meaningful (widen the bounds with --bounds to tell)",
                 e.key, e.estimate, e.bounds[0], e.bounds[1]
             )
         })
@@ -452,64 +520,45 @@ fn precision_warnings(estimates: &[Estimate]) -> Vec<String> {
         .collect()
 }
 
-/// Every run replayed at the start and at the solution, segment by segment.
+/// Every run replayed at the start values (the start states fitted to them alone, as
+/// `compare` does) and at the solution, segment by segment.
 fn run_fits(
-    problem: &Problem,
+    problem: &mut Problem,
     start: &[f64],
     solution: &[f64],
 ) -> Result<Vec<RunFit>, CalibrationError> {
-    let before = replay_runs(problem, start)?;
-    let after = replay_runs(problem, solution)?;
-    Ok(problem
-        .traces
-        .iter()
-        .zip(before.into_iter().zip(after))
-        .map(|(trace, (before, after))| run_fit(problem, trace, before, after))
+    let parameters: Vec<f64> = (problem.unknowns.iter().zip(start))
+        .filter(|(u, _)| !matches!(u.scope, Scope::Segment(_)))
+        .map(|(_, v)| *v)
+        .collect();
+    let before_theta = fit_states(problem, &parameters)?;
+    let before = replay(problem, &before_theta)?;
+    let after = replay(problem, solution)?;
+    Ok((problem.traces.iter().zip(before.into_iter().zip(after)))
+        .map(|(trace, (before, after))| run_fit(trace, before, after))
         .collect())
 }
 
-/// Per run, per fitted signal, its simulated values over the run (its segments joined).
-fn replay_runs(problem: &Problem, theta: &[f64]) -> Result<Vec<Vec<Vec<f64>>>, CalibrationError> {
-    let mut runs = vec![vec![Vec::new(); problem.outputs.len()]; problem.traces.len()];
-    for (s, segment) in problem.segments.iter().enumerate() {
-        for (series, rows) in runs[segment.run]
-            .iter_mut()
-            .zip(problem.simulate(theta, s)?)
-        {
-            series.extend(rows);
-        }
-    }
-    Ok(runs)
-}
-
-fn run_fit(
-    problem: &Problem,
-    trace: &Trace,
-    before: Vec<Vec<f64>>,
-    after: Vec<Vec<f64>>,
-) -> RunFit {
-    let mut fit = RunFit {
+fn run_fit(trace: &Trace, before: RunReplay, after: RunReplay) -> RunFit {
+    let overlays = (before.overlays.into_iter().zip(after.overlays))
+        .map(|(b, a): (Overlay, Overlay)| (a.signal, a.unit, [a.measured, b.simulated, a.simulated]))
+        .collect();
+    RunFit {
         source: trace.source.clone(),
         digest: trace.digest.clone(),
         rate: trace.rate.clone(),
-        before: Vec::new(),
-        after: Vec::new(),
-        overlays: Vec::new(),
+        before: before.signals,
+        after: after.signals,
+        overlays,
+        segments: after.segments,
         start_time: trace.start_time,
         period: trace.period,
-    };
-    for ((&i, b), a) in problem.outputs.iter().zip(before).zip(after) {
-        let (name, unit) = problem.replayer.shape.columns.signals[i].clone();
-        let measured = trace.measured[i].clone().unwrap_or_default();
-        fit.before.push(signal_fit(&name, &unit, &measured, &b));
-        fit.after.push(signal_fit(&name, &unit, &measured, &a));
-        fit.overlays.push((name, unit, [measured, b, a]));
     }
-    fit
 }
 
-/// The validation runs replayed from their own start states (no state fitted) with the start
-/// values and with the fitted ones; a per-run parameter at the mean of its fitted values.
+/// The validation runs replayed as `compare` replays them (in segments from the start states
+/// their data give, fitted alone), with the start values and with the fitted ones; a per-run
+/// parameter at the mean of its fitted values.
 fn validation_fits(
     builder: &ScenarioBuilder,
     registry: &Registry,
@@ -530,17 +579,17 @@ fn validation_fits(
                 start: *start,
                 bounds: [f64::NEG_INFINITY, f64::INFINITY],
                 scale: start.abs().max(1e-12),
+                coordinate: None,
             })
             .collect();
-        let fixed = CalibrationOptions {
-            states: StartStates::Fixed,
-            ..options.clone()
-        };
-        let problem = Problem::new(replayer, vec![trace], &fixed, parameters)?;
+        let mut problem = Problem::new(replayer, vec![trace], options, parameters)?;
+        let starts: Vec<f64> = fitted.iter().map(|(_, start, _)| *start).collect();
         let after: Vec<f64> = fitted.iter().map(|(_, _, value)| *value).collect();
-        let before = replay_runs(&problem, &problem.start())?.remove(0);
-        let after = replay_runs(&problem, &after)?.remove(0);
-        fits.push(run_fit(&problem, &problem.traces[0], before, after));
+        let theta = fit_states(&mut problem, &starts)?;
+        let before = replay(&problem, &theta)?.remove(0);
+        let theta = fit_states(&mut problem, &after)?;
+        let after = replay(&problem, &theta)?.remove(0);
+        fits.push(run_fit(&problem.traces[0], before, after));
     }
     Ok(fits)
 }
@@ -610,12 +659,18 @@ impl Calibration {
                 .map(|r| {
                     json!({
                         "data": r.source, "sha256": r.digest, "data_rate": rate_json(&r.rate),
-                        "before": r.before, "after": r.after,
+                        "before": r.before, "after": r.after, "segments": r.segments,
                     })
                 })
                 .collect()
         };
         json!({
+            "verdict": self.verdict.word(),
+            "fits": self.verdict.fits,
+            "verdict_detail": self.verdict,
+            "notes": self.notes,
+            "segment_s": self.segment,
+            "coordinates": self.coordinates,
             "parameters": self.estimates,
             "correlation": self.correlation,
             "runs": fits(&self.runs),

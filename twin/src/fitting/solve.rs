@@ -38,6 +38,8 @@ pub struct Solution {
     pub cost: f64,
     /// The Jacobian there.
     pub jacobian: DMatrix<f64>,
+    /// The weighted residuals there, per segment.
+    pub residuals: Vec<Vec<f64>>,
     /// The accepted steps.
     pub iterations: Vec<Iteration>,
     /// Whether a tolerance was met (not the iteration limit or the damping limit).
@@ -101,7 +103,7 @@ pub fn solve(
             step_down(problem, &theta, &normal, &gradient, &mut damping, current)
         else {
             converged = true;
-            return finish(theta, current, jacobian, iterations, converged);
+            return finish(theta, (current, residuals), jacobian, iterations, converged);
         };
         let (new_theta, new_residuals, new_cost) = next;
         let decrease = current - new_cost;
@@ -121,12 +123,12 @@ pub fn solve(
         }
     }
     let jacobian = problem.jacobian(&theta, &residuals)?;
-    finish(theta, current, jacobian, iterations, converged)
+    finish(theta, (current, residuals), jacobian, iterations, converged)
 }
 
 fn finish(
     theta: Vec<f64>,
-    cost: f64,
+    (cost, residuals): (f64, Vec<Vec<f64>>),
     jacobian: DMatrix<f64>,
     iterations: Vec<Iteration>,
     converged: bool,
@@ -135,6 +137,7 @@ fn finish(
         theta,
         cost,
         jacobian,
+        residuals,
         iterations,
         converged,
     })

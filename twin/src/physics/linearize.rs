@@ -215,6 +215,17 @@ impl ReducedDynamics {
         Ok(())
     }
 
+    /// Starts later loop-closure solves from `positions` (per tree joint, URDF sense): an
+    /// assembly known to lie on the branch wanted, such as a configuration tracked along a run.
+    pub fn anchor(&mut self, positions: &[f64]) {
+        let model = &self.engine.model;
+        for (j, dof) in model.dof_of_joint.iter().enumerate() {
+            if let (Some(g), Some(&position)) = (*dof, positions.get(j)) {
+                self.q0[g] = model.sign[g] * position;
+            }
+        }
+    }
+
     /// Changes a link's mass properties for later evaluations.
     pub fn set_link_inertial(&mut self, link: usize, inertial: Inertial) {
         self.engine.set_link_inertial(link, inertial);

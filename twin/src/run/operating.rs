@@ -133,8 +133,15 @@ impl Twin {
     /// The parts of a model of the plant beside a machine (a shadow's filter): the mechanism at
     /// the scenario's initial state, a fresh machine, the layout and the actuators. Refuses, as
     /// [`Twin::linearize`] does, a machine whose actuators are not all joints.
-    pub(crate) fn model_parts(mut self) -> Result<ModelParts, LinearizeError> {
+    pub(crate) fn model_parts(self) -> Result<ModelParts, LinearizeError> {
         self.own_actuators()?;
+        self.start_parts()
+    }
+
+    /// The parts of a model at the scenario's initial state, whatever drives the machine's
+    /// actuators: what a calibration needs to place the mechanism where its data say (its
+    /// joints and loops), not to integrate it.
+    pub(crate) fn start_parts(mut self) -> Result<ModelParts, LinearizeError> {
         let capture = self.capture(0.0)?;
         let scenario = &self.loaded.scenario;
         let machine = machines::build(&scenario.machine, &self.mechanism, &scenario.process)

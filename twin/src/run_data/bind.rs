@@ -1,7 +1,9 @@
 //! A run's table bound to a plant: every column named as the plant's command, measured or true
 //! signal, in a unit that fits it (converted to SI), and resampled onto the control period's
 //! grid: rows already on it are taken exactly; otherwise measured and true signals are
-//! interpolated linearly and commands held (zero-order hold), as the controller held them.
+//! interpolated linearly and commands held (zero-order hold), as the controller held them,
+//! except across a gap of rows (dropped, or a logger slower than the control), where they follow
+//! a cubic through the rows around the gap.
 
 use super::units::{factor, to_si};
 use super::{ColumnRole, DataError, DataRate, PlantColumns, RunData, Trace};
@@ -11,6 +13,9 @@ use super::{ColumnRole, DataError, DataRate, PlantColumns, RunData, Trace};
 const MAX_SAMPLES: usize = 50_000_000;
 /// Rows closer than this many periods to a grid point are on it.
 const ON_GRID: f64 = 1e-9;
+/// Rows further apart than this many control periods leave the commands between them to an
+/// interpolation.
+const COMMAND_GAP: f64 = 1.5;
 /// Names listed in a refusal of an unknown column before "… and N more".
 const KNOWN_LISTED: usize = 12;
 
@@ -69,8 +74,17 @@ impl RunData {
             measured: vec![None; plant.signals.len()],
             truth: vec![None; plant.signals.len()],
             rate: self.rate(resampled),
+            rows: None,
+            logged: vec![None; plant.signals.len()],
         };
+        if resampled {
+            let first = self.time[0];
+            trace.rows = Some(self.time.iter().map(|t| (t - first) / period).collect());
+        }
         for (role, index, values) in bound {
+            if resampled && role == ColumnRole::Measured {
+                trace.logged[index] = Some(values.clone());
+            }
             let slot = match role {
                 ColumnRole::Command => &mut trace.commands[index],
                 ColumnRole::Measured => &mut trace.measured[index],
@@ -78,7 +92,9 @@ impl RunData {
             };
             *slot = Some(match (resampled, role) {
                 (false, _) => values,
-                (true, ColumnRole::Command) => places.iter().map(|p| values[p.row]).collect(),
+                (true, ColumnRole::Command) => (places.iter())
+                    .map(|p| self.command_at(&values, *p, period))
+                    .collect(),
                 (true, _) => places.iter().map(|p| interpolate(&values, *p)).collect(),
             });
         }
@@ -150,6 +166,41 @@ impl RunData {
             places.push(Place { row, weight });
         }
         Ok((places, true))
+    }
+
+    /// A command at a grid point: the row's at or before it, held (the controller held it over
+    /// its period); across a gap of more than [`COMMAND_GAP`] periods (rows dropped, a logger
+    /// slower than the control), on a cubic through the rows around it: the controller updated
+    /// it in between by amounts the data do not hold, and a smooth command is followed closely.
+    fn command_at(&self, values: &[f64], place: Place, period: f64) -> f64 {
+        let gap = match self.time.get(place.row + 1) {
+            Some(next) => (next - self.time[place.row]) / period,
+            None => 0.0,
+        };
+        match gap > COMMAND_GAP {
+            true => self.cubic(values, place),
+            false => values[place.row],
+        }
+    }
+
+    /// The value at `place` on the cubic through the two rows around it and their neighbours
+    /// (Lagrange, at the rows' own times), linear where the data end on either side.
+    fn cubic(&self, values: &[f64], place: Place) -> f64 {
+        let r = place.row;
+        if r == 0 || r + 2 >= values.len() {
+            return interpolate(values, place);
+        }
+        let t = self.time[r] + place.weight * (self.time[r + 1] - self.time[r]);
+        let rows = [r - 1, r, r + 1, r + 2];
+        let mut sum = 0.0;
+        for &i in &rows {
+            let mut weight = 1.0;
+            for &j in rows.iter().filter(|&&j| j != i) {
+                weight *= (t - self.time[j]) / (self.time[i] - self.time[j]);
+            }
+            sum += weight * values[i];
+        }
+        sum
     }
 
     /// The data's own time steps.

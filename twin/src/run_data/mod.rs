@@ -165,6 +165,31 @@ pub struct Trace {
     pub truth: Vec<Option<Vec<f64>>>,
     /// How the data were sampled.
     pub rate: DataRate,
+    /// Where the data's own rows fall on the grid, in samples from the first (row r is at
+    /// `start_time + rows[r]·period`); `None` when the rows are the grid's samples. A fit
+    /// compares the twin with the data at these instants only, not at interpolated ones.
+    pub rows: Option<Vec<f64>>,
+    /// Per plant signal, the measured values at the data's own rows, SI, when they are not the
+    /// grid's samples (`rows` is `Some`).
+    pub logged: Vec<Option<Vec<f64>>>,
+}
+
+impl Trace {
+    /// A measured signal as logged: the rows' places on the grid (in samples) and the values
+    /// there; on-grid data give every sample.
+    pub fn observed(&self, signal: usize) -> Option<(std::borrow::Cow<'_, [f64]>, &[f64])> {
+        match &self.rows {
+            None => {
+                let values = self.measured[signal].as_deref()?;
+                let places = (0..values.len()).map(|k| k as f64).collect();
+                Some((std::borrow::Cow::Owned(places), values))
+            }
+            Some(rows) => Some((
+                std::borrow::Cow::Borrowed(rows.as_slice()),
+                self.logged[signal].as_deref()?,
+            )),
+        }
+    }
 }
 
 /// How a run's data were sampled: their own time steps, and whether they were resampled onto

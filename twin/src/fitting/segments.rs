@@ -1,0 +1,291 @@
+//! The runs cut into segments (multiple shooting) and where each segment starts: placed where
+//! the data say ([`super::start`]), on the branch the machine is on, or, where the logged
+//! positions cannot place the mechanism, each run whole from the scenario's initial state, said
+//! in one line with the reason and what to log.
+
+use super::replay::{Replayer, Segment};
+use super::start::{Assembly, Placement, Probe};
+use super::{CalibrationError, DEFAULT_SEGMENT};
+use crate::run_data::Trace;
+
+/// Fewest samples a segment may have: a start state and its first moves.
+pub const MIN_SEGMENT_SAMPLES: usize = 10;
+/// Seconds of replay that choose between assemblies the first samples leave open.
+const CHOICE_SPAN: f64 = 0.2;
+/// A change of a coordinate's start (1 rad or m, 1 rad/s or m/s) that moves the fitted signals
+/// by less than this many σ has no effect: the coordinate need not be placed.
+const IDLE: f64 = 1e-6;
+
+/// The segments and their starts.
+pub struct Layout {
+    /// Segment length, s; 0: whole runs.
+    pub length: f64,
+    pub segments: Vec<Segment>,
+    /// Per segment, where the data place the mechanism at its begin sample; `None`: the
+    /// scenario's initial state.
+    pub starts: Vec<Option<Placement>>,
+    /// Per independent coordinate, whether its start is read off the data (and may be fitted).
+    pub placed: Vec<bool>,
+    /// What the layout had to decide, for the user.
+    pub notes: Vec<String>,
+}
+
+/// What the layout needs besides the traces.
+pub struct Setting<'s> {
+    /// Asked segment length, s (0: whole runs); `None`: the default.
+    pub asked: Option<f64>,
+    /// Per run, its logged positions and velocities.
+    pub probes: &'s [[Vec<Probe>; 2]],
+    /// The fitted signals and their σ.
+    pub outputs: &'s [usize],
+    pub sigma: &'s [f64],
+    /// The parameters' start values, set in every replay.
+    pub parameters: &'s [(String, f64)],
+}
+
+/// Lays the runs out in segments of the asked or default length, each placed where its data
+/// say; refuses an asked length the data cannot start segments for, naming what to log.
+pub fn lay_out(
+    replayer: &Replayer,
+    assembly: &mut Assembly,
+    traces: &[Trace],
+    setting: &Setting,
+) -> Result<Layout, CalibrationError> {
+    let names = assembly.coordinate_names();
+    let mut firsts = Vec::with_capacity(traces.len());
+    let mut unplaced: Option<String> = None;
+    for (run, trace) in traces.iter().enumerate() {
+        let probes = &setting.probes[run];
+        match first_placement(replayer, assembly, trace, run, setting) {
+            Ok(first) => firsts.push(Some(first)),
+            Err(reason) => {
+                unplaced.get_or_insert(format!("{}: {reason}", trace.source));
+                firsts.push(None);
+            }
+        }
+        let _ = probes;
+    }
+    let mut placed = vec![firsts.iter().all(Option::is_some); names.len()];
+    if unplaced.is_none() {
+        let all: Vec<Placement> = firsts.iter().flatten().cloned().collect();
+        let positions: Vec<Probe> = setting.probes.iter().flat_map(|p| p[0].clone()).collect();
+        placed = assembly.observed(&positions, &all);
+        let missing: Vec<&str> = (names.iter().zip(&placed))
+            .filter(|(_, p)| !**p)
+            .map(|(n, _)| n.as_str())
+            .collect();
+        if !missing.is_empty() && !idle(replayer, assembly, traces, &firsts, &placed, setting)? {
+            unplaced = Some(format!(
+                "the logged positions do not fix {} (log {}, or a joint the loops tie to it)",
+                missing.join(", "),
+                missing
+                    .iter()
+                    .map(|m| format!("{m}.position"))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ));
+        }
+    }
+    let mut notes = Vec::new();
+    let length = match (setting.asked, &unplaced) {
+        (Some(s), Some(reason)) if s != 0.0 => {
+            return Err(CalibrationError::Options(format!(
+                "--segment {s}: a segment must start where the machine is, and {reason}; give --segment 0 to replay each run whole from the scenario's initial state"
+            )));
+        }
+        (None, Some(reason)) => {
+            notes.push(format!(
+                "each run is replayed whole from the scenario's initial state, not in segments: {reason}"
+            ));
+            0.0
+        }
+        (Some(s), _) => s,
+        (None, None) => DEFAULT_SEGMENT,
+    };
+    let period = replayer.shape.period;
+    let segments = segments(traces, length, period)?;
+    let mut starts = vec![None; segments.len()];
+    if unplaced.is_none() {
+        for (run, trace) in traces.iter().enumerate() {
+            let Some(first) = &firsts[run] else { continue };
+            let index: Vec<usize> = (0..segments.len())
+                .filter(|&s| segments[s].run == run)
+                .collect();
+            let begins: Vec<usize> = index.iter().map(|&s| segments[s].begin()).collect();
+            let placements = (assembly.track(trace, &setting.probes[run], first, &begins))
+                .map_err(|reason| placement_error(trace, reason))?;
+            for (s, placement) in index.into_iter().zip(placements) {
+                starts[s] = Some(placement);
+            }
+        }
+    }
+    Ok(Layout {
+        length,
+        segments,
+        starts,
+        placed,
+        notes,
+    })
+}
+
+fn placement_error(trace: &Trace, reason: String) -> CalibrationError {
+    CalibrationError::Options(format!(
+        "{}: the logged positions cannot be followed along the run ({reason}); check their units and signs, or give --segment 0",
+        trace.source
+    ))
+}
+
+/// Where run `run` starts: the one assembly its first samples give, or of several, the one
+/// whose replay over the first [`CHOICE_SPAN`] follows the data best.
+fn first_placement(
+    replayer: &Replayer,
+    assembly: &mut Assembly,
+    trace: &Trace,
+    run: usize,
+    setting: &Setting,
+) -> Result<Placement, String> {
+    let probes = &setting.probes[run];
+    if probes[0].is_empty() {
+        return Err("no joint position is logged".into());
+    }
+    let mut candidates = assembly.candidates(trace, probes)?;
+    if candidates.len() == 1 {
+        return Ok(candidates.remove(0));
+    }
+    let len = ((CHOICE_SPAN / trace.period).round() as usize).clamp(2, trace.samples);
+    let segment = Segment {
+        run,
+        start: 0,
+        len,
+        lead: 0,
+    };
+    let mut best: Option<(f64, Placement)> = None;
+    for candidate in candidates {
+        let cost = replay_cost(replayer, assembly, trace, segment, &candidate, setting);
+        if best.as_ref().is_none_or(|(c, _)| cost < *c) {
+            best = Some((cost, candidate));
+        }
+    }
+    best.map(|(_, p)| p)
+        .ok_or_else(|| "no assembly reads the logged positions".into())
+}
+
+/// The weighted squared residual of a replay of `segment` from `placement` (infinite where the
+/// twin cannot run it).
+fn replay_cost(
+    replayer: &Replayer,
+    assembly: &mut Assembly,
+    trace: &Trace,
+    segment: Segment,
+    placement: &Placement,
+    setting: &Setting,
+) -> f64 {
+    let Ok(mut values) = assembly.initial_values(&placement.anchor, &placement.x) else {
+        return f64::INFINITY;
+    };
+    values.extend(setting.parameters.iter().cloned());
+    let Ok(simulated) = replayer.simulate(trace, segment, &values, setting.outputs) else {
+        return f64::INFINITY;
+    };
+    let mut cost = 0.0;
+    for ((row, &i), sigma) in simulated.iter().zip(setting.outputs).zip(setting.sigma) {
+        let measured = trace.measured[i].as_deref().unwrap_or_default();
+        let measured = &measured[segment.start..segment.start + segment.len];
+        cost += (measured.iter().zip(row))
+            .map(|(y, s)| ((y - s) / sigma).powi(2))
+            .sum::<f64>();
+    }
+    if cost.is_finite() {
+        cost
+    } else {
+        f64::INFINITY
+    }
+}
+
+/// Whether the coordinates the logged positions do not fix have no effect on the fitted
+/// signals (a free spindle's angle): a replay of each run's start with them moved is the same.
+fn idle(
+    replayer: &Replayer,
+    assembly: &mut Assembly,
+    traces: &[Trace],
+    firsts: &[Option<Placement>],
+    placed: &[bool],
+    setting: &Setting,
+) -> Result<bool, CalibrationError> {
+    let k = placed.len();
+    for (run, trace) in traces.iter().enumerate() {
+        let Some(first) = &firsts[run] else {
+            return Ok(false);
+        };
+        let len = ((CHOICE_SPAN / trace.period).round() as usize).clamp(2, trace.samples);
+        let segment = Segment {
+            run,
+            start: 0,
+            len,
+            lead: 0,
+        };
+        let base = replay_cost(replayer, assembly, trace, segment, first, setting);
+        for c in (0..k).filter(|&c| !placed[c]) {
+            for offset in [c, k + c] {
+                let mut moved = first.clone();
+                moved.x[offset] += 1.0;
+                let cost = replay_cost(replayer, assembly, trace, segment, &moved, setting);
+                if !(cost.is_finite() && (cost - base).abs() <= IDLE * IDLE * len as f64) {
+                    return Ok(false);
+                }
+            }
+        }
+    }
+    Ok(true)
+}
+
+/// The segments of the runs: stretches of `seconds` (a last stretch shorter than half of one
+/// joins the one before), or whole runs for 0.
+pub fn segments(
+    traces: &[Trace],
+    seconds: f64,
+    period: f64,
+) -> Result<Vec<Segment>, CalibrationError> {
+    let mut segments = Vec::new();
+    for (run, trace) in traces.iter().enumerate() {
+        let length = match seconds {
+            0.0 => trace.samples,
+            s if s.is_finite() && s > 0.0 => ((s / period).round() as usize).max(1),
+            s => {
+                let reason =
+                    format!("--segment {s}: must be a duration > 0 s, or 0 for whole runs");
+                return Err(CalibrationError::Options(reason));
+            }
+        };
+        if trace.samples < MIN_SEGMENT_SAMPLES {
+            return Err(CalibrationError::Options(format!(
+                "{}: {} samples at the control period {period} s; a fit needs at least {MIN_SEGMENT_SAMPLES}: give a longer run",
+                trace.source, trace.samples
+            )));
+        }
+        let length = length.min(trace.samples);
+        if length < MIN_SEGMENT_SAMPLES {
+            return Err(CalibrationError::Options(format!(
+                "--segment: {length} samples per segment at the control period {period} s; give at least {MIN_SEGMENT_SAMPLES}"
+            )));
+        }
+        let mut start = 0;
+        while start < trace.samples {
+            let mut len = length.min(trace.samples - start);
+            if trace.samples - start - len < length / 2 {
+                len = trace.samples - start;
+            }
+            // A tenth of a segment settles the machine's own states (a drive's current lag is
+            // well under a millisecond; the lead is 0.1 s of a 1 s segment).
+            let lead = start.min((length / 10).max(MIN_SEGMENT_SAMPLES));
+            segments.push(Segment {
+                run,
+                start,
+                len,
+                lead,
+            });
+            start += len;
+        }
+    }
+    Ok(segments)
+}
