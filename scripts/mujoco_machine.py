@@ -11,6 +11,17 @@ the twin did not write, for `twin calibrate` and its benchmark (scripts/bench-ca
         --duration 5 --dt 0.001 --control-period 0.001 --out run.csv \
         --noise '*.position=1e-4' --seed 7
 
+or, as a real machine runs and logs (its own controller, only what its sensors and drives give,
+noisy, a tenth of the rows lost):
+
+    "$TWIN_TOOLS_PYTHON" scripts/mujoco_machine.py --urdf urdf/whitworth.urdf \
+        --set link.ram.mass=6 --set joint.crank.damping=0.3 \
+        --controller speed-pi --gain inertia=1.5 --gain natural_frequency=30 \
+        --reference 'crank=multisine:amp=2,fmin=0.2,fmax=3,tones=8,seed=2,offset=-2*pi' \
+        --duration 5 --dt 1e-4 --control-period 1e-3 \
+        --log effort.crank,ram.position --noise ram.position=1e-5 --drop 0.1 --seed 0 \
+        --out run.csv --truth-out truth.csv
+
 The model. MuJoCo's own URDF import (`mujoco.MjSpec.from_file`) reads the file; then, on the
 spec, before compiling:
   - gravity along −y (the twin's planar URDFs lie in x–y; `--gravity`, default 0,−9.81 as the
@@ -54,11 +65,44 @@ row: every joint's initial state, the twin's `[initial]`). `--effort-unit A` lab
 as the arm scenario's unit-gain current drives take them (1 A = 1 N·m). `--rest` starts the run
 where gravity holds the machine (`rest_state`: a passive settle; the Whitworth ram down).
 
+The machine's own controller (`--controller`; without it the efforts are `--torque`'s, open
+loop). At each control period t_k it reads MuJoCo's state there (the controlled joints'
+positions and velocities in the twin's coordinates, noise-free: what its encoders and
+tachometers read), and its command, clipped to the URDF's effort limits, is held over
+[t_k, t_k + period); row k holds that command. It is designed on the URDF's nominal values
+(a second, unmodified model), never on `--set`'s. `--reference JOINT=SPEC` is a SPEC as
+`--torque`'s below, in the controller's units:
+  speed-pi  per joint the twin's `crank-pi` law: τ = kp·e + ki·∫e, e = r − q̇ (rad/s or m/s),
+            the integral frozen while the command is clipped; kp = 2ζω_n·J, ki = ω_n²·J with
+            `--gain inertia=J` (default: the joint's nominal reduced inertia at the start, the
+            loops closed), `natural_frequency=ω_n` (30 rad/s), `damping_ratio=ζ` (1), or
+            `kp=…`, `ki=…` directly. A joint not given starts at its URDF position turning at
+            r(0). Every driven joint needs a reference.
+  pid       per joint τ = kp·e + kd·ė + ki·∫e + g(q), e = r − q (rad or m), ė = ṙ − q̇ (ṙ by
+            differences on the control grid), the integral frozen while clipped; a triple pole
+            at −ω: kd = 3ω·J, kp = 3ω²·J, ki = ω³·J with `bandwidth=ω` (10 rad/s) and `inertia`
+            as above, or `kp`, `ki`, `kd` directly; g(q) the nominal model's gravity at the
+            measured q (`gravity=1`, the default where the machine has no closed loops). A
+            driven joint without a reference is held where it starts; a joint not given starts
+            on its reference (r(0), ṙ(0)).
+A gain names every controlled joint (`kp=…`) or one (`elbow.kp=…`). `--controller` and
+`--torque` exclude each other.
+
+The logger (`--log`, `--log-period`, `--drop`; any of them writes the CSV this way, `--signals`
+then not allowed). `--log NAME,…` the columns after `time [s]`, in that order: `effort.<joint>`
+(the command held at the logged instant), `<joint>.position`, `<joint>.velocity` of any movable
+joint, units as the twin's run format ([N·m], [N], [rad], [m], [rad/s], [m/s]; `--effort-unit`
+relabels the efforts); default every effort and every joint state. `--log-period S` writes a
+row every S (a multiple of the control period; default the control period). `--noise` is drawn
+on the logged rows, then `--drop F` removes round(F × rows) of them at random (seeded by
+`--seed` too, a stream apart from the noise's; never the first or the last row). `--truth-out`
+is unchanged: every joint's noise-free state and every command at every control period.
+
 `--torque JOINT=SPEC`, SPEC one of:
   multisine:amp=A,fmin=F0,fmax=F1,tones=N,seed=S,offset=O
       N tones log-spaced over [F0, F1] Hz, each nudged by up to ±10 % with the seed, Schroeder
       phases, scaled to peak |A| about the offset O (defaults: fmin 0.2, fmax 4, tones 10,
-      seed 1, offset 0);
+      seed 1, offset 0; a value may use pi: offset=-2*pi);
   an expression in t (s): numpy's sin, cos, tan, exp, log, sqrt, abs, sign, where, clip,
       minimum, maximum, pi, e; e.g. "3*sin(2*pi*0.7*t) + 1.5*cos(2*pi*2.3*t)";
   0 or zero.
@@ -67,8 +111,9 @@ limit and seed = 1 + its index among the driven joints. The excitation has to ke
 within its joint limits and away from chaos (an open-loop arm should hang: start it with
 `--initial shoulder=-pi/2`).
 
-Importable: `Machine` (the model and the state mapping), `excitation`, `simulate`, `rest_state`,
-`write_csv`, `read_csv` are used by scripts/bench-calibration; the CLI by the CI test
+Importable: `Machine` (the model and the state mapping), `excitation`, `simulate`,
+`simulate_controlled` and `Controller`, `rest_state`, `write_csv`, `write_log`, `read_csv`,
+`main` are used by scripts/bench-calibration; the CLI by the CI test
 tests/tests/mujoco_calibration.rs.
 """
 
@@ -595,10 +640,12 @@ def excitation(spec_text: str, t: np.ndarray, duration: float | None = None) -> 
         if rest.startswith("(") and rest.endswith(")"):
             rest = rest[1:-1]
         for item in filter(None, (s.strip() for s in rest.split(","))):
+            if "=" not in item:
+                raise SystemExit(f"mujoco_machine: multisine: {item!r}: expected NAME=VALUE")
             key, value = item.split("=", 1)
             if key.strip() not in ("amp", "fmin", "fmax", "tones", "seed", "offset"):
                 raise SystemExit(f"mujoco_machine: multisine: unknown argument {key!r}")
-            args[key.strip()] = float(value)
+            args[key.strip()] = _number(value)
         return multisine(t, duration=duration, **args)
     value = eval(text, {"__builtins__": {}}, {**SAFE_NAMES, "t": t})  # noqa: S307 (numbers only)
     return np.broadcast_to(np.asarray(value, dtype=float), t.shape).copy()
@@ -607,6 +654,163 @@ def excitation(spec_text: str, t: np.ndarray, duration: float | None = None) -> 
 def default_excitation(machine: Machine, joint: str) -> str:
     i = machine.actuator_index[joint]
     return f"multisine:amp={0.1 * machine.effort_limits[i]:g},fmin=0.2,fmax=4,tones=10,seed={i + 1}"
+
+
+# --------------------------------------------------------------------------------------------
+# The machine's own controller
+
+
+CONTROLLERS = {
+    "speed-pi": "PI on each controlled joint's speed to its reference (rad/s or m/s)",
+    "pid": "PID on each controlled joint's position to its reference (rad or m), plus gravity "
+           "compensation by the URDF's nominal model where the machine has no closed loops",
+}
+GAIN_NAMES = {
+    "speed-pi": ("inertia", "natural_frequency", "damping_ratio", "kp", "ki"),
+    "pid": ("inertia", "bandwidth", "kp", "ki", "kd", "gravity"),
+}
+GAIN_DEFAULTS = {
+    "speed-pi": {"natural_frequency": 30.0, "damping_ratio": 1.0},
+    "pid": {"bandwidth": 10.0},
+}
+
+
+def reduced_inertia(nominal: Machine, positions: dict[str, float], joint: str) -> float:
+    """The inertia a joint's drive sees at a configuration (kg·m² or kg): vᵀ·M·v with v the
+    velocities of a unit speed of that joint alone, the loops closed (the other driven joints
+    held). Of the URDF's nominal model: what the machine's builder knows."""
+    m = nominal.model
+    data = mujoco.MjData(m)
+    held = {j.name: 0.0 for j in nominal.driven}
+    held[joint] = 1.0
+    nominal.set_state(data, positions, held)
+    full = np.zeros((m.nv, m.nv))
+    mujoco.mj_fullM(m, data, full)
+    return float(data.qvel @ full @ data.qvel)
+
+
+class Controller:
+    """The machine's own controller, run by MuJoCo's loop at each control period from MuJoCo's
+    state (the controlled joints' positions and velocities, as its encoders and tachometers
+    would read them, without their noise). Designed on the URDF's nominal model (`nominal`: no
+    hidden values), never on the played one.
+
+    speed-pi: per joint the twin's `crank-pi` law, τ = kp·e + ki·∫e with e = r − q̇, the integral
+    frozen while the command is clipped (anti-windup); kp = 2ζω_n·J, ki = ω_n²·J (`inertia` J,
+    default the joint's nominal reduced inertia at the start; `natural_frequency` ω_n, default
+    30 rad/s; `damping_ratio` ζ, default 1), or `kp`, `ki` given.
+
+    pid: per joint τ = kp·e + kd·ė + ki·∫e + g(q) with e = r − q, ė = ṙ − q̇ (ṙ the reference's
+    rate, by differences on the control grid), the integral frozen while clipped; a triple pole at
+    −ω: kd = 3ω·J, kp = 3ω²·J, ki = ω³·J (`bandwidth` ω, default 10 rad/s; `inertia` J, default the
+    joint's nominal reduced inertia at the start), or `kp`, `ki`, `kd` given. g(q) is the nominal
+    model's gravity torque at the measured q (`gravity=1`, the default on a machine without
+    closed loops; `gravity=0` leaves it out).
+
+    Gains apply to every controlled joint (`kp=…`) or to one (`elbow.kp=…`)."""
+
+    def __init__(self, kind: str, machine: Machine, nominal: Machine,
+                 references: dict[str, np.ndarray], period: float, gains: dict[str, float],
+                 start: dict[str, float]):
+        if kind not in CONTROLLERS:
+            raise SystemExit(f"mujoco_machine: --controller {kind}: not one of "
+                             f"{', '.join(CONTROLLERS)}")
+        self.kind, self.machine, self.nominal, self.period = kind, machine, nominal, period
+        self.joints = [j.name for j in machine.driven if j.name in references]
+        if not self.joints:
+            raise SystemExit(f"mujoco_machine: --controller {kind}: no joint to control (give "
+                             "--reference JOINT=SPEC)")
+        index = {j.name: i for i, j in enumerate(machine.twin_joints)}
+        self.columns = [index[j] for j in self.joints]
+        self.actuators = [machine.actuator_index[j] for j in self.joints]
+        self.reference = np.column_stack([references[j] for j in self.joints])
+        self.rate = np.column_stack([np.gradient(references[j], period) if len(references[j]) > 1
+                                     else np.zeros(1) for j in self.joints])
+        allowed = GAIN_NAMES[kind]
+        for key in gains:
+            joint, _, name = key.rpartition(".")
+            if name not in allowed or (joint and joint not in self.joints):
+                raise SystemExit(f"mujoco_machine: --gain {key}: {kind} takes "
+                                 f"[JOINT.]{{{','.join(allowed)}}} on {', '.join(self.joints)}")
+
+        def gain(joint: str, name: str):
+            return gains.get(f"{joint}.{name}", gains.get(name, GAIN_DEFAULTS[kind].get(name)))
+
+        self.gains = []  # per joint: dict of the gains in use
+        for joint in self.joints:
+            inertia = gain(joint, "inertia")
+            if inertia is None and any(gain(joint, n) is None for n in
+                                       (("kp", "ki") if kind == "speed-pi" else ("kp", "ki", "kd"))):
+                inertia = reduced_inertia(nominal, start, joint)
+            if kind == "speed-pi":
+                wn, zeta = gain(joint, "natural_frequency"), gain(joint, "damping_ratio")
+                kp = gain(joint, "kp") if gain(joint, "kp") is not None else 2 * zeta * wn * inertia
+                ki = gain(joint, "ki") if gain(joint, "ki") is not None else wn * wn * inertia
+                self.gains.append({"inertia": inertia, "kp": kp, "ki": ki})
+            else:
+                w = gain(joint, "bandwidth")
+                kp = gain(joint, "kp") if gain(joint, "kp") is not None else 3 * w * w * inertia
+                ki = gain(joint, "ki") if gain(joint, "ki") is not None else w ** 3 * inertia
+                kd = gain(joint, "kd") if gain(joint, "kd") is not None else 3 * w * inertia
+                self.gains.append({"inertia": inertia, "kp": kp, "ki": ki, "kd": kd})
+        self.gravity = False
+        if kind == "pid":
+            flags = {bool(gain(j, "gravity")) if gain(j, "gravity") is not None
+                     else not machine.loops for j in self.joints}
+            if len(flags) > 1:
+                raise SystemExit("mujoco_machine: --gain gravity: give it for every joint or none")
+            self.gravity = flags.pop()
+            if self.gravity and machine.loops:
+                raise SystemExit("mujoco_machine: --gain gravity=1: only on a machine without "
+                                 "closed loops")
+            self._nominal_data = mujoco.MjData(nominal.model)
+            self._dofs = [nominal.vadr[j] for j in self.joints]
+        self.limits = machine.effort_limits[self.actuators]
+        self.reset()
+
+    def reset(self) -> None:
+        self.integral = np.zeros(len(self.joints))
+
+    def _gravity(self, q: np.ndarray) -> np.ndarray:
+        d = self._nominal_data
+        d.qvel[:] = 0.0
+        for i, j in enumerate(self.machine.twin_joints):
+            if j.name in self.nominal.qadr:
+                d.qpos[self.nominal.qadr[j.name]] = q[i]
+        mujoco.mj_forward(self.nominal.model, d)
+        return d.qfrc_bias[self._dofs].copy()
+
+    def command(self, k: int, q: np.ndarray, v: np.ndarray) -> np.ndarray:
+        out = np.zeros(len(self.machine.driven))
+        k = min(k, self.reference.shape[0] - 1)
+        r, rate = self.reference[k], self.rate[k]
+        extra = self._gravity(q) if self.gravity else np.zeros(len(self.joints))
+        for i, g in enumerate(self.gains):
+            if self.kind == "speed-pi":
+                e = r[i] - v[self.columns[i]]
+                candidate = self.integral[i] + e * self.period
+                unclipped = g["kp"] * e + g["ki"] * candidate
+                if abs(unclipped) <= self.limits[i]:
+                    self.integral[i] = candidate
+                u = g["kp"] * e + g["ki"] * self.integral[i]
+            else:
+                e = r[i] - q[self.columns[i]]
+                de = rate[i] - v[self.columns[i]]
+                candidate = self.integral[i] + e * self.period
+                unclipped = g["kp"] * e + g["kd"] * de + g["ki"] * candidate + extra[i]
+                if abs(unclipped) <= self.limits[i]:
+                    self.integral[i] = candidate
+                u = g["kp"] * e + g["kd"] * de + g["ki"] * self.integral[i] + extra[i]
+            out[self.actuators[i]] = np.clip(u, -self.limits[i], self.limits[i])
+        return out
+
+    def describe(self) -> list[str]:
+        lines = []
+        for j, g in zip(self.joints, self.gains):
+            text = ", ".join(f"{k} {v:.6g}" for k, v in g.items() if v is not None)
+            lines.append(f"{self.kind} on {j}: {text}" +
+                         (", nominal gravity compensation" if self.gravity else ""))
+        return lines
 
 
 # --------------------------------------------------------------------------------------------
@@ -628,6 +832,22 @@ def simulate(machine: Machine, efforts: np.ndarray, period: float,
              initial: dict[str, tuple[float, float]] | None = None) -> Run:
     """Steps MuJoCo through the rows of `efforts` (one per control period, held), from the
     initial state; returns N + 1 rows of states for N + 1 effort rows (the last one unused)."""
+    applied = np.clip(efforts, -machine.effort_limits, machine.effort_limits)
+    return _simulate(machine, efforts.shape[0], period, initial, lambda k, q, v: applied[k])
+
+
+def simulate_controlled(machine: Machine, controller: "Controller", rows: int, period: float,
+                        initial: dict[str, tuple[float, float]] | None = None) -> Run:
+    """The machine under its own controller: at each control period t_k the controller reads
+    MuJoCo's state there (the twin's joint coordinates) and its command, clipped to the effort
+    limits, is held over [t_k, t_k + period). Row k holds t_k, that command and the state at t_k
+    (the last row's command is computed, not applied)."""
+    controller.reset()
+    return _simulate(machine, rows, period, initial, controller.command)
+
+
+def _simulate(machine: Machine, rows: int, period: float,
+              initial: dict[str, tuple[float, float]] | None, command) -> Run:
     m = machine.model
     substeps = int(round(period / m.opt.timestep))
     if substeps < 1 or abs(substeps * m.opt.timestep - period) > 1e-9 * period:
@@ -636,20 +856,21 @@ def simulate(machine: Machine, efforts: np.ndarray, period: float,
     initial = initial or {}
     machine.set_state(data, {k: v[0] for k, v in initial.items()},
                       {k: v[1] for k, v in initial.items()})
-    rows = efforts.shape[0]
     n = len(machine.twin_joints)
     q, v = np.empty((rows, n)), np.empty((rows, n))
-    applied = np.clip(efforts, -machine.effort_limits, machine.effort_limits)
+    applied = np.empty((rows, len(machine.driven)))
     gap = 0.0
     start = wallclock.perf_counter()
     q[0], v[0] = machine.twin_state(data)
     for k in range(rows - 1):
+        applied[k] = command(k, q[k], v[k])
         data.ctrl[:] = applied[k]
         for _ in range(substeps):
             mujoco.mj_step(m, data)
         q[k + 1], v[k + 1] = machine.twin_state(data, q[k])
         if m.neq:
             gap = max(gap, machine.loop_gap(data))
+    applied[rows - 1] = command(rows - 1, q[rows - 1], v[rows - 1])
     wall = wallclock.perf_counter() - start
     crossed = []
     for i, j in enumerate(machine.twin_joints):
@@ -713,6 +934,81 @@ def write_csv(path: str, machine: Machine, run: Run, noise: dict[str, float] | N
             out.write(",".join(f"{x:.17g}" for x in row) + "\n")
 
 
+def log_columns(machine: Machine, effort_unit: str | None = None) -> dict[str, str]:
+    """Every column a log can hold, by name (without unit) → its header (with unit)."""
+    out = {}
+    for header in machine.columns():
+        name, unit = header.rsplit(" [", 1)
+        if effort_unit and name.startswith("effort."):
+            header = f"{name} [{effort_unit}]"
+        out[name] = header
+    return out
+
+
+def write_log(path: str, machine: Machine, run: Run, columns: list[str] | None = None,
+              log_period: float | None = None, noise: dict[str, float] | None = None,
+              seed: int | None = None, drop: float = 0.0, effort_unit: str | None = None,
+              period: float | None = None) -> dict:
+    """The run as a machine's logger writes it: `columns` (names without unit: `effort.<joint>`,
+    `<joint>.position`, `<joint>.velocity`; default every effort and every joint state) after
+    `time [s]`; a row every `log_period` (a multiple of the control period `period`; the effort
+    is the command held at that instant); seeded Gaussian noise on the named columns (globs;
+    `numpy.random.default_rng(seed)`, drawn column after column over every logged row); then
+    `drop` (a fraction in [0, 1)) of the rows removed at random (`default_rng([seed, 1])`,
+    round(drop × rows) of them, never the first or the last row: the run keeps its span).
+    Returns what was written (rows, dropped, log period)."""
+    available = log_columns(machine, effort_unit)
+    names = list(columns) if columns else list(available)[1:]
+    if not names:
+        raise SystemExit("mujoco_machine: --log names no column")
+    unknown = [n for n in names if n not in available or n == "time"]
+    if unknown:
+        raise SystemExit(f"mujoco_machine: --log {', '.join(unknown)}: no such column (one of "
+                         f"{', '.join(list(available)[1:])})")
+    if len(set(names)) != len(names):
+        raise SystemExit("mujoco_machine: --log names a column twice")
+    period = period if period is not None else (run.time[1] - run.time[0] if len(run.time) > 1 else 1.0)
+    every = 1
+    if log_period is not None:
+        every = int(round(log_period / period))
+        if every < 1 or abs(every * period - log_period) > 1e-9 * log_period:
+            raise SystemExit(f"mujoco_machine: --log-period {log_period:g}: not a multiple of the "
+                             f"control period {period:g} s")
+    if not 0.0 <= drop < 1.0:
+        raise SystemExit(f"mujoco_machine: --drop {drop:g}: a fraction in [0, 1)")
+    full = {"time": run.time}
+    for i, j in enumerate(machine.driven):
+        full[f"effort.{j.name}"] = run.efforts[:, i]
+    for i, j in enumerate(machine.twin_joints):
+        full[f"{j.name}.position"] = run.positions[:, i]
+        full[f"{j.name}.velocity"] = run.velocities[:, i]
+    rows = np.arange(0, len(run.time), every)
+    table = np.column_stack([full["time"][rows]] + [full[n][rows] for n in names])
+    header = ["time [s]"] + [available[n] for n in names]
+    if noise:
+        rng = np.random.default_rng(seed)
+        for pattern, sigma in noise.items():
+            hits = [c for c, n in enumerate(names, start=1) if fnmatch.fnmatchcase(n, pattern)]
+            if not hits:
+                raise SystemExit(f"mujoco_machine: --noise {pattern}: no such logged column "
+                                 f"({', '.join(names)})")
+            for c in hits:
+                table[:, c] += rng.normal(0.0, sigma, table.shape[0])
+    dropped = 0
+    if drop > 0.0 and table.shape[0] > 2:
+        dropped = int(round(drop * table.shape[0]))
+        dropped = min(dropped, table.shape[0] - 2)
+        rng = np.random.default_rng([seed if seed is not None else 0, 1])
+        gone = rng.choice(np.arange(1, table.shape[0] - 1), size=dropped, replace=False)
+        table = np.delete(table, gone, axis=0)
+    with open(path, "w", encoding="utf-8") as out:
+        out.write(",".join(header) + "\n")
+        for row in table:
+            out.write(",".join(f"{x:.17g}" for x in row) + "\n")
+    return {"rows": int(table.shape[0]), "dropped": dropped, "log_period": every * period,
+            "columns": header}
+
+
 def read_csv(path: str) -> tuple[list[str], np.ndarray]:
     """The header's names without units, and the numbers."""
     with open(path, encoding="utf-8") as f:
@@ -741,10 +1037,11 @@ def _number(text: str) -> float:
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(
         description="MuJoCo plays a twin URDF: a measured run (CSV in the twin's run format) "
-                    "under held joint efforts, with hidden plant values and optional noise.",
+                    "under held joint efforts or its own controller, with hidden plant values, "
+                    "logged as chosen (columns, period, noise, dropped rows).",
         formatter_class=argparse.RawDescriptionHelpFormatter,
-        epilog=__doc__.split("`--torque JOINT=SPEC`", 1)[1].split("Importable:", 1)[0].join(
-            ["--torque JOINT=SPEC", ""]),
+        epilog=__doc__.split("The machine's own controller", 1)[1].split("Importable:", 1)[0].join(
+            ["The machine's own controller", ""]),
     )
     p.add_argument("--urdf", required=True, help="the twin's URDF, e.g. urdf/arm.urdf")
     p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
@@ -777,7 +1074,27 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--noise", action="append", default=[], metavar="COLUMN=SIGMA",
                    help="Gaussian noise on written columns, by name without unit; globs allowed "
                         "('*.position=1e-4', 'effort.crank=0.05')")
-    p.add_argument("--seed", type=int, default=0, help="noise seed (default 0)")
+    p.add_argument("--seed", type=int, default=0, help="noise seed (default 0; --drop's too)")
+    p.add_argument("--controller", default=None, choices=sorted(CONTROLLERS),
+                   help="the machine's own controller, run in MuJoCo's loop at each control "
+                        "period (default: none, the efforts are --torque's): speed-pi, pid")
+    p.add_argument("--reference", action="append", default=[], metavar="JOINT=SPEC",
+                   help="a controlled joint's reference, a --torque SPEC in the controller's "
+                        "units: speed-pi rad/s (m/s), pid rad (m); pid holds a driven joint "
+                        "without one at its start")
+    p.add_argument("--gain", action="append", default=[], metavar="[JOINT.]NAME=VALUE",
+                   help="controller gain or design value (speed-pi: inertia, natural_frequency, "
+                        "damping_ratio, kp, ki; pid: inertia, bandwidth, kp, ki, kd, gravity)")
+    p.add_argument("--log", default=None, metavar="NAME,…",
+                   help="the columns logged after time, in this order: effort.<joint>, "
+                        "<joint>.position, <joint>.velocity (default: every effort and joint "
+                        "state), e.g. 'effort.crank,ram.position'")
+    p.add_argument("--log-period", type=float, default=None, metavar="S",
+                   help="the logger's period, a multiple of the control period (default: the "
+                        "control period); an effort is the command held at the logged instant")
+    p.add_argument("--drop", type=float, default=0.0, metavar="FRACTION",
+                   help="remove this fraction of the logged rows at random, seeded (never the "
+                        "first or the last)")
     args = p.parse_args(argv)
 
     values = [parse_value(s) for s in args.set]
@@ -802,12 +1119,73 @@ def main(argv: list[str] | None = None) -> int:
 
     steps = int(round(args.duration / period))
     t = np.arange(steps + 1) * period
-    specs = [torques.get(j.name, default_excitation(machine, j.name)) for j in machine.driven]
-    efforts = np.column_stack([excitation(s, t, args.duration) for s in specs]) if specs \
-        else np.zeros((steps + 1, 0))
-    run = simulate(machine, efforts, period, initial)
+    logging = args.log is not None or args.log_period is not None or args.drop
+    if logging:
+        # The logger's settings checked before the run, not after it.
+        if args.signals:
+            raise SystemExit("mujoco_machine: give --signals or --log, not both")
+        available = log_columns(machine)
+        wanted = [c.strip() for c in (args.log or "").split(",") if c.strip()]
+        unknown = [c for c in wanted if c not in available or c == "time"]
+        if unknown:
+            raise SystemExit(f"mujoco_machine: --log {', '.join(unknown)}: no such column (one "
+                             f"of {', '.join(list(available)[1:])})")
+        if args.log_period is not None:
+            every = int(round(args.log_period / period))
+            if every < 1 or abs(every * period - args.log_period) > 1e-9 * args.log_period:
+                raise SystemExit(f"mujoco_machine: --log-period {args.log_period:g}: not a "
+                                 f"multiple of the control period {period:g} s")
+        if not 0.0 <= args.drop < 1.0:
+            raise SystemExit(f"mujoco_machine: --drop {args.drop:g}: a fraction in [0, 1)")
+    controller = None
+    if args.controller:
+        if torques:
+            raise SystemExit("mujoco_machine: give --torque (open loop) or --controller, not both")
+        references = {}
+        for name, text in _pairs(args.reference, "--reference").items():
+            if name not in machine.actuator_index:
+                raise SystemExit(f"mujoco_machine: --reference {name}: not a driven joint "
+                                 f"({', '.join(machine.actuator_index)})")
+            references[name] = excitation(text, t, args.duration)
+        for j in machine.driven:
+            if j.name in references:
+                continue
+            if args.controller == "speed-pi":
+                raise SystemExit(f"mujoco_machine: --controller speed-pi: give --reference "
+                                 f"{j.name}=SPEC (rad/s)")
+            # pid holds it where it starts.
+            references[j.name] = np.full(t.shape, initial.get(j.name, (0.0, 0.0))[0])
+        for name, r in references.items():
+            # A controlled joint not given starts on its reference: pid at r(0) moving at ṙ(0),
+            # speed-pi at its URDF position turning at r(0).
+            if name not in initial:
+                if args.controller == "pid":
+                    rate = (r[1] - r[0]) / period if len(r) > 1 else 0.0
+                    initial[name] = (float(r[0]), float(rate))
+                else:
+                    initial[name] = (0.0, float(r[0]))
+        gains = {k: _number(v) for k, v in _pairs(args.gain, "--gain").items()}
+        nominal = Machine(args.urdf, [], (gx, gy), args.dt, args.loop_timeconst)
+        controller = Controller(args.controller, machine, nominal, references, period, gains,
+                                {k: v[0] for k, v in initial.items()})
+        specs = [f"{args.controller}, reference " + dict(_pairs(args.reference, "")).get(
+            j.name, "held at the start") for j in machine.driven]
+        run = simulate_controlled(machine, controller, steps + 1, period, initial)
+    else:
+        if args.reference or args.gain:
+            raise SystemExit("mujoco_machine: --reference and --gain need --controller")
+        specs = [torques.get(j.name, default_excitation(machine, j.name)) for j in machine.driven]
+        efforts = np.column_stack([excitation(s, t, args.duration) for s in specs]) if specs \
+            else np.zeros((steps + 1, 0))
+        run = simulate(machine, efforts, period, initial)
     signals = [s.strip() for s in args.signals.split(",") if s.strip()] if args.signals else None
-    write_csv(args.out, machine, run, noise, args.seed, signals, args.effort_unit)
+    logged = None
+    if logging:
+        columns = [c.strip() for c in args.log.split(",") if c.strip()] if args.log else None
+        logged = write_log(args.out, machine, run, columns, args.log_period, noise, args.seed,
+                           args.drop, args.effort_unit, period)
+    else:
+        write_csv(args.out, machine, run, noise, args.seed, signals, args.effort_unit)
     if args.truth_out:
         write_csv(args.truth_out, machine, run, effort_unit=args.effort_unit)
 
@@ -816,6 +1194,17 @@ def main(argv: list[str] | None = None) -> int:
           f"{run.wall_seconds:.3f} s wall; wrote {args.out}", file=sys.stderr)
     for j, s in zip(machine.driven, specs):
         print(f"  effort.{j.name} = {s}", file=sys.stderr)
+    if controller is not None:
+        for line in controller.describe():
+            print(f"  {line}", file=sys.stderr)
+        for i, j in enumerate(machine.driven):
+            clipped = np.mean(np.abs(run.efforts[:-1, i]) >= machine.effort_limits[i] * (1 - 1e-12))
+            if clipped > 0:
+                print(f"  effort.{j.name} at its limit ({machine.effort_limits[i]:g}) in "
+                      f"{100 * clipped:.1f} % of the periods", file=sys.stderr)
+    if logged is not None:
+        print(f"  logged {logged['rows']} rows every {logged['log_period']:g} s "
+              f"({logged['dropped']} dropped): {', '.join(logged['columns'])}", file=sys.stderr)
     if machine.derived or machine.loops:
         print(f"  loop closures: largest gap {run.loop_gap_max:.3g} m", file=sys.stderr)
     for text in run.limits_crossed:
