@@ -86,7 +86,7 @@ fn estimate(result: &Calibration, key: &str) -> f64 {
 fn replaying_its_own_run_reproduces_it() {
     let dir = folder("replay");
     let data = record(whitworth(2.0), &dir.join("run.csv"));
-    let comparison = compare(&whitworth(2.0), &controllers::builtin(), &data, false).unwrap();
+    let comparison = compare(&whitworth(2.0), &controllers::builtin(), &data, &CalibrationOptions::default()).unwrap();
     assert!(!comparison.signals.is_empty());
     for fit in &comparison.signals {
         assert!(
@@ -506,7 +506,7 @@ fn an_open_loop_replay_needs_every_command_and_a_map_renames_a_log() {
     std::fs::write(&missing, without).unwrap();
     let registry = controllers::builtin();
     let data = RunData::read(&missing, &[]).unwrap();
-    let message = compare(&whitworth(0.5), &registry, &data, false)
+    let message = compare(&whitworth(0.5), &registry, &data, &CalibrationOptions::default())
         .unwrap_err()
         .to_string();
     assert!(
@@ -515,7 +515,7 @@ fn an_open_loop_replay_needs_every_command_and_a_map_renames_a_log() {
     );
     let map = [("motor".to_string(), "effort.crank".to_string())];
     let data = RunData::read(&renamed, &map).unwrap();
-    let comparison = compare(&whitworth(0.5), &registry, &data, false).unwrap();
+    let comparison = compare(&whitworth(0.5), &registry, &data, &CalibrationOptions::default()).unwrap();
     assert!(comparison.signals.iter().all(|s| s.fit_percent > 99.999));
 }
 

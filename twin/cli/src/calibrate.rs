@@ -3,7 +3,7 @@
 //! report (calibration.json), the calibrated scenario (calibrated.toml) and a recording of the
 //! fits before and after, the cost per iteration and the intervals (calibration.rrd).
 
-use crate::compare::{rate_line, table};
+use crate::compare::{rate_line, table_judged};
 use crate::failure::Failure;
 use crate::fit_figures::{cost_plot, interval_plot, time_plot, AFTER, BEFORE, MEASURED};
 use framework::Registry;
@@ -297,14 +297,15 @@ fn report(result: &Calibration) -> String {
     for warning in &result.warnings {
         out += &format!("warning: {warning}\n");
     }
+    let judged = &result.verdict.signals;
     for run in &result.runs {
-        out += &table(&run.source, &run.after, Some(&run.before));
+        out += &table_judged(&run.source, &run.after, Some(&run.before), judged);
         out += &format!("  {}\n", rate_line(&run.rate, run.period));
     }
     for run in &result.validation {
         out += &format!(
             "validation: {}",
-            table(&run.source, &run.after, Some(&run.before))
+            table_judged(&run.source, &run.after, Some(&run.before), &[])
         );
     }
     out

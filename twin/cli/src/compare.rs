@@ -8,7 +8,9 @@ use crate::fit_figures::{residual_spectra, time_plot, BEFORE, MEASURED, RESIDUAL
 use framework::Registry;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
-use twin::calibration::{compare, CalibrationOptions, Comparison, SegmentFit, SignalFit, StartStates};
+use twin::calibration::{
+    compare, CalibrationOptions, Comparison, SegmentFit, SignalFit, SignalVerdict, StartStates,
+};
 use twin::data::{parse_renames, DataRate, RunData};
 use twin::recordings::write_figures;
 use twin::{OutputFile, Overrides, Scenario};
@@ -84,37 +86,36 @@ pub fn run(args: &CompareArgs, registry: &Registry) -> Result<ExitCode, Failure>
 /// Segments listed in full up to this many; beyond, the worst of them.
 const SEGMENTS_LISTED: usize = 12;
 
-/// Per segment, its times and each signal's fit % (the worst segments, where there are many).
+/// Per segment, its times and its worst-fitting signal (the worst segments, where there are
+/// many); every segment's figures are in comparison.json.
 pub fn segment_table(segments: &[SegmentFit]) -> String {
     if segments.len() < 2 {
         return String::new();
     }
-    let worst = |s: &SegmentFit| {
+    let worst = |s: &SegmentFit| -> Option<SignalFit> {
         (s.signals.iter())
-            .map(|f| f.fit_percent)
-            .fold(f64::INFINITY, f64::min)
+            .min_by(|a, b| a.fit_percent.total_cmp(&b.fit_percent))
+            .cloned()
     };
+    let score = |s: &SegmentFit| worst(s).map_or(f64::INFINITY, |f| f.fit_percent);
     let mut listed: Vec<&SegmentFit> = segments.iter().collect();
-    let mut out = String::from("  per segment, fit %:\n");
+    let mut out = format!("  per segment, the signal that fits worst ({} segments):\n", segments.len());
     if listed.len() > SEGMENTS_LISTED {
-        listed.sort_by(|a, b| worst(a).total_cmp(&worst(b)));
+        listed.sort_by(|a, b| score(a).total_cmp(&score(b)));
         listed.truncate(SEGMENTS_LISTED);
         listed.sort_by(|a, b| a.start_time.total_cmp(&b.start_time));
         out = format!(
-            "  per segment, fit % (the {SEGMENTS_LISTED} worst of {}):\n",
+            "  the {SEGMENTS_LISTED} segments of {} that fit worst, and their worst signal:\n",
             segments.len()
         );
     }
     for segment in listed {
-        let fits: Vec<String> = (segment.signals.iter())
-            .map(|f| format!("{} {:.3}", f.signal, f.fit_percent))
-            .collect();
-        out += &format!(
-            "    {:>9.3}–{:<9.3} s  {}\n",
-            segment.start_time,
-            segment.end_time,
-            fits.join("  ")
-        );
+        if let Some(fit) = worst(segment) {
+            out += &format!(
+                "    {:>9.3} – {:<9.3} s  {:<28} {:>9.3} %\n",
+                segment.start_time, segment.end_time, fit.signal, fit.fit_percent
+            );
+        }
     }
     out
 }
@@ -122,6 +123,17 @@ pub fn segment_table(segments: &[SegmentFit]) -> String {
 /// The figures per signal as a table: fit %, RMS and largest error, whiteness; with `before`,
 /// the fit % before beside it.
 pub fn table(source: &str, signals: &[SignalFit], before: Option<&[SignalFit]>) -> String {
+    table_judged(source, signals, before, &[])
+}
+
+/// [`table`], the whiteness column as a calibration's verdict reads it: a residual that is its
+/// signal's quantisation, or at the data's precision, counts as white.
+pub fn table_judged(
+    source: &str,
+    signals: &[SignalFit],
+    before: Option<&[SignalFit]>,
+    judged: &[SignalVerdict],
+) -> String {
     let mut out = format!("{source}\n");
     let head = match before {
         Some(_) => "fit before %  fit after %",
@@ -141,11 +153,21 @@ pub fn table(source: &str, signals: &[SignalFit], before: Option<&[SignalFit]>) 
             fit.signal,
             fit.rms_error,
             fit.max_error,
-            if fit.whiteness.white { "yes" } else { "no" },
+            white_word(fit, judged.iter().find(|j| j.signal == fit.signal)),
             fit.unit
         );
     }
     out
+}
+
+/// The whiteness column: `yes`, `no`, or why a residual that is not white still counts.
+fn white_word(fit: &SignalFit, judged: Option<&SignalVerdict>) -> &'static str {
+    match (fit.whiteness.white, judged) {
+        (true, _) => "yes",
+        (false, Some(j)) if j.white && j.quantum.is_some() => "quantised",
+        (false, Some(j)) if j.white => "exact",
+        (false, _) => "no",
+    }
 }
 
 /// The data's own sampling, and whether it was resampled onto the control period.

@@ -1,29 +1,30 @@
 //! How far a simulated signal is from a measured one: the System Identification Toolbox's fit %,
-//! RMS and largest error, a residual whiteness test, the noise a measured signal carries, and
-//! Student's t quantile for the intervals.
+//! RMS and largest error, a residual whiteness test (Ljung–Box), the noise a measured signal
+//! carries, and Student's t quantile for the intervals.
 
 use serde::Serialize;
 
-/// Lags the whiteness test looks at (the toolbox's `resid` default).
+/// Lags the whiteness test looks at (the System Identification Toolbox's `resid` default).
 pub const WHITENESS_LAGS: usize = 25;
-/// The two-sided 99 % point of the standard normal: the whiteness band is ±this/√N.
-const Z_99: f64 = 2.575_829_303_548_901;
+/// The standard normal's 99.9 % point: each signal's whiteness test at 0.1 %, so that a model
+/// with a handful of white signals passes all of them 99 % of the time.
+const Z_999: f64 = 3.090_232_306_167_813;
 /// The two-sided 95 % point of the standard normal.
 const Z_95: f64 = 1.959_963_984_540_054;
 
-/// Whether a residual looks like white noise: its autocorrelation at lags 1..=`lags` against
-/// the 99 % band ±2.576/√N of a white sequence.
+/// Whether a residual looks like white noise: Ljung–Box's Q over its autocorrelations at lags
+/// 1..=`lags`, against the χ² quantile of `lags` degrees of freedom at 99.9 %.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Whiteness {
     /// Lags tested.
     pub lags: usize,
-    /// The band's half-width, 2.576/√N.
-    pub band: f64,
+    /// Ljung–Box Q = N(N+2)·Σ r_l²/(N−l).
+    pub ljung_box: f64,
+    /// The χ² quantile Q is held to.
+    pub threshold: f64,
     /// The largest |autocorrelation| over the lags.
     pub largest: f64,
-    /// Lags whose autocorrelation falls outside the band.
-    pub outside: usize,
-    /// No lag outside the band: the residual is white at the 99 % level.
+    /// Q within the threshold: the residual is white at the 0.1 % level.
     pub white: bool,
 }
 
@@ -72,49 +73,100 @@ pub fn signal_fit(signal: &str, unit: &str, measured: &[f64], simulated: &[f64])
     }
 }
 
-/// The whiteness test of a residual over lags 1..=`lags` (fewer when the residual is short).
+/// The whiteness test of a residual over lags 1..=`lags` (fewer when the residual is short:
+/// at most a quarter of its length).
 pub fn whiteness(residual: &[f64], lags: usize) -> Whiteness {
-    let n = residual.len();
-    let band = Z_99 / (n.max(1) as f64).sqrt();
-    let mean = residual.iter().sum::<f64>() / n.max(1) as f64;
-    let centred: Vec<f64> = residual.iter().map(|r| r - mean).collect();
-    let variance: f64 = centred.iter().map(|r| r * r).sum();
-    let lags = lags.min(n.saturating_sub(1));
+    whiteness_of(&[residual], lags)
+}
+
+/// The whiteness test of a residual cut into pieces (a run's segments: no product across a
+/// cut), about the whole residual's mean.
+pub fn whiteness_of(pieces: &[&[f64]], lags: usize) -> Whiteness {
+    let n: usize = pieces.iter().map(|p| p.len()).sum();
+    let lags = lags.min(n / 4).max(1);
+    let mean = pieces.iter().flat_map(|p| p.iter()).sum::<f64>() / n.max(1) as f64;
+    let variance: f64 = (pieces.iter().flat_map(|p| p.iter()))
+        .map(|r| (r - mean).powi(2))
+        .sum();
     let correlations: Vec<f64> = (1..=lags)
         .map(|lag| {
-            if variance == 0.0 {
-                return 0.0;
-            }
-            let sum: f64 = centred
-                .iter()
-                .zip(&centred[lag..])
-                .map(|(a, b)| a * b)
+            let sum: f64 = (pieces.iter().filter(|p| p.len() > lag))
+                .map(|p| (p.iter().zip(&p[lag..])).map(|(a, b)| (a - mean) * (b - mean)).sum::<f64>())
                 .sum();
-            sum / variance
+            match variance > 0.0 {
+                true => sum / variance,
+                false => 0.0,
+            }
         })
         .collect();
-    let outside = correlations.iter().filter(|c| c.abs() > band).count();
+    let count = n as f64;
+    let q = count
+        * (count + 2.0)
+        * (correlations.iter().enumerate())
+            .map(|(l, r)| r * r / (count - (l + 1) as f64).max(1.0))
+            .sum::<f64>();
+    let threshold = chi_square_999(lags);
     Whiteness {
         lags,
-        band,
+        ljung_box: q,
+        threshold,
         largest: correlations.iter().fold(0.0, |m: f64, c| m.max(c.abs())),
-        outside,
-        white: outside == 0,
+        white: q <= threshold,
     }
 }
 
-/// The standard deviation of the noise on a sampled signal, from its second differences: for a
-/// smooth signal under white noise of σ, y[k+1] − 2y[k] + y[k−1] has variance 6σ² (the smooth
-/// part's share, ÿ·T², is negligible at a control period). Quantisation reads as its own noise.
+/// The χ² quantile of `dof` degrees of freedom at the 99.9 % point (Wilson–Hilferty).
+pub fn chi_square_999(dof: usize) -> f64 {
+    let k = dof.max(1) as f64;
+    let a = 2.0 / (9.0 * k);
+    k * (1.0 - a + Z_999 * a.sqrt()).powi(3)
+}
+
+/// The standard deviation of the noise on a sampled signal, from its differences: for a
+/// smooth signal under white noise of σ, the second difference y[k+1] − 2y[k] + y[k−1] has
+/// variance 6σ² and the fourth 70σ², the smooth part's share being the signal's curvature (or
+/// its third derivative's) over the rows. The smaller of the two, so that a curved signal
+/// logged slowly (a ram every 10 ms) is not taken for noise. Quantisation reads as its own noise.
 pub fn noise_level(values: &[f64]) -> f64 {
     if values.len() < 3 {
         return 0.0;
     }
-    let sum: f64 = values
-        .windows(3)
-        .map(|w| (w[2] - 2.0 * w[1] + w[0]).powi(2))
-        .sum();
-    (sum / (values.len() - 2) as f64 / 6.0).sqrt()
+    let mean_square = |coefficients: &[f64]| {
+        let n = coefficients.len();
+        let windows = values.windows(n);
+        let count = windows.len().max(1) as f64;
+        let sum: f64 = windows
+            .map(|w| w.iter().zip(coefficients).map(|(v, c)| v * c).sum::<f64>().powi(2))
+            .sum();
+        sum / count
+    };
+    let second = (mean_square(&[1.0, -2.0, 1.0]) / 6.0).sqrt();
+    if values.len() < 5 {
+        return second;
+    }
+    let fourth = (mean_square(&[1.0, -4.0, 6.0, -4.0, 1.0]) / 70.0).sqrt();
+    second.min(fourth)
+}
+
+/// Whether a signal's differences look like white noise on it: its fourth differences as
+/// large as its second ones say (within a factor of two). Not so for data without noise, or a
+/// vibration only a few rows long, whose differences are the signal's own: their "noise" is
+/// only an upper bound, and the rows are better taken as they are than smoothed.
+pub fn noise_resolved(values: &[f64]) -> bool {
+    if values.len() < 5 {
+        return false;
+    }
+    let rms = |coefficients: &[f64]| -> f64 {
+        let windows = values.windows(coefficients.len());
+        let count = windows.len().max(1) as f64;
+        let sum: f64 = windows
+            .map(|w| w.iter().zip(coefficients).map(|(v, c)| v * c).sum::<f64>().powi(2))
+            .sum();
+        (sum / count).sqrt()
+    };
+    let second = rms(&[1.0, -2.0, 1.0]) / 6f64.sqrt();
+    let fourth = rms(&[1.0, -4.0, 6.0, -4.0, 1.0]) / 70f64.sqrt();
+    second > 0.0 && fourth >= 0.5 * second
 }
 
 /// Student's t two-sided 95 % quantile for `dof` degrees of freedom: the Cornish–Fisher series
@@ -156,7 +208,7 @@ mod tests {
         assert!(whiteness(&white, WHITENESS_LAGS).white);
         let sine: Vec<f64> = (0..5000).map(|k| (k as f64 * 0.05).sin()).collect();
         let test = whiteness(&sine, WHITENESS_LAGS);
-        assert!(!test.white && test.outside == WHITENESS_LAGS);
+        assert!(!test.white && test.largest > 0.9, "{test:?}");
     }
 
     #[test]

@@ -3,7 +3,7 @@
 //! bounds, the segments, the fitted signals and their noise; the weighted residuals at the
 //! data's own rows and their forward-difference Jacobian, rolled out in parallel.
 
-use super::metrics::noise_level;
+use super::metrics::{noise_level, noise_resolved};
 use super::replay::{PlantShape, Replayer, Segment};
 use super::segments::{lay_out, Setting};
 use super::start::{Assembly, Placement, Probe};
@@ -325,6 +325,14 @@ impl<'a> Problem<'a> {
         let outputs = outputs(shape, &traces, &options.signals)?;
         let noise_of = |i: usize| noise_of(shape, &traces, i, &options.noise);
         let sigma: Vec<f64> = outputs.iter().map(|&i| noise_of(i)).collect();
+        let smoothed = |i: usize| {
+            let name = &shape.columns.signals[i].0;
+            let given = options.noise.iter().any(|(n, _)| n == name);
+            let resolved = (traces.iter())
+                .filter_map(|t| t.observed(i))
+                .all(|(_, values)| noise_resolved(values));
+            (noise_of(i), given || resolved)
+        };
         let threads = thread_count(options.threads);
         let mut assemblies: Vec<Assembly> = (0..=threads)
             .map(|_| replayer.assembly())
@@ -333,7 +341,7 @@ impl<'a> Problem<'a> {
         let probes: Vec<[Vec<Probe>; 2]> = {
             let sensors = replayer.sensors();
             (traces.iter())
-                .map(|t| assembly.probes(shape, t, &|name| sensors(name), &noise_of))
+                .map(|t| assembly.probes(shape, t, &|name| sensors(name), &smoothed))
                 .collect()
         };
         let starting: Vec<(String, f64)> = (parameters.iter())

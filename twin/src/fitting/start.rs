@@ -8,7 +8,7 @@
 //! ambiguous at the run's start (a ram's position is met twice per crank turn), the candidates
 //! are handed back for the replay to choose between.
 
-use super::local_fit::{fit_at, LocalValue};
+use super::local_fit::{fit_adaptive, through, LocalValue};
 use super::replay::PlantShape;
 use crate::mechanism::JointMotion;
 use crate::physics::{MechanismState, ReducedDynamics, ReducedError};
@@ -16,11 +16,11 @@ use crate::run::ModelParts;
 use crate::run_data::Trace;
 use nalgebra::{DMatrix, DVector};
 
-/// Half-width of a local fit, s: long enough to average the noise, short enough that a cubic
-/// follows a linkage's positions.
+/// Widest half-width of a local fit, s: long enough to average the noise, short enough that a
+/// cubic follows a linkage's positions (narrower where the rows say it does not).
 const FIT_HALF_WIDTH: f64 = 0.02;
-/// Fewest rows on each side of a local fit.
-const FIT_MIN_ROWS: f64 = 5.0;
+/// Fewest rows on each side of a local fit (a cubic through five).
+const FIT_MIN_ROWS: f64 = 2.0;
 /// Gauss–Newton iterations per placement.
 const PLACE_ITERATIONS: usize = 8;
 /// Forward-difference step of a coordinate, rad or m.
@@ -43,6 +43,8 @@ pub struct Probe {
     pub bias: f64,
     /// Its noise σ, SI.
     pub sigma: f64,
+    /// Whether its rows are smoothed (their noise is known or resolved) or taken as they are.
+    pub smoothed: bool,
 }
 
 /// Where the data place the mechanism at one sample.
@@ -144,7 +146,7 @@ impl Assembly {
         shape: &PlantShape,
         trace: &Trace,
         sensors: &dyn Fn(&str) -> (f64, f64),
-        sigma: &dyn Fn(usize) -> f64,
+        sigma: &dyn Fn(usize) -> (f64, bool),
     ) -> [Vec<Probe>; 2] {
         let mut probes = [Vec::new(), Vec::new()];
         for (joint, name) in self.names.iter().enumerate() {
@@ -163,12 +165,14 @@ impl Assembly {
                 if gain == 0.0 || !gain.is_finite() {
                     continue;
                 }
+                let (sigma, smoothed) = sigma(signal);
                 probes[kind].push(Probe {
                     signal,
                     joint,
                     gain,
                     bias,
-                    sigma: sigma(signal).max(f64::MIN_POSITIVE),
+                    sigma: sigma.max(f64::MIN_POSITIVE),
+                    smoothed,
                 });
             }
         }
@@ -256,12 +260,19 @@ impl Assembly {
                     gradient[c] += (x[c] - value) / (spread * spread);
                 }
             }
+            // A coordinate neither the readings nor the prior see keeps its value.
+            let seen: Vec<usize> = (0..k).filter(|&c| normal[(c, c)] > 0.0).collect();
+            if seen.is_empty() {
+                break;
+            }
+            let normal = normal.select_rows(&seen).select_columns(&seen);
+            let gradient = gradient.select_rows(&seen);
             let step = normal.lu().solve(&(-gradient));
             let Some(step) = step.filter(|s| s.iter().all(|d| d.is_finite())) else {
                 break;
             };
-            for c in 0..k {
-                x[c] += step[c];
+            for (i, &c) in seen.iter().enumerate() {
+                x[c] += step[i];
             }
             if step.amax() <= 1e-13 * x[..k].iter().fold(1.0_f64, |m, v| m.max(v.abs())) {
                 break;
@@ -329,13 +340,18 @@ impl Assembly {
 /// The local fits of the probes at sample `at` of `trace` (positions: value and rate;
 /// velocities: value), or `None` where a probe has too few rows there.
 fn local_fits(trace: &Trace, probes: &[Probe], at: usize) -> Option<Vec<LocalValue>> {
-    let half = (FIT_HALF_WIDTH / trace.period).max(FIT_MIN_ROWS);
     probes
         .iter()
         .map(|p| {
             let (places, values) = trace.observed(p.signal)?;
-            let half = half.max(FIT_MIN_ROWS * row_spacing(&places));
-            fit_at(&places, values, at as f64, half, p.sigma, trace.period)
+            if !p.smoothed {
+                if let Some(row) = through(&places, values, at as f64, trace.period) {
+                    return Some(row);
+                }
+            }
+            let least = FIT_MIN_ROWS * row_spacing(&places).max(1.0);
+            let most = (FIT_HALF_WIDTH / trace.period).max(least);
+            fit_adaptive(&places, values, at as f64, [least, most], p.sigma, trace.period)
         })
         .collect()
 }

@@ -4,18 +4,16 @@
 //! not fit gets intervals widened by the residuals' own autocorrelation (a Newey–West sandwich),
 //! marked, and advice on what to try.
 
-use super::metrics::SignalFit;
+use super::metrics::{whiteness_of, SignalFit, WHITENESS_LAGS};
 use super::problem::Problem;
 use nalgebra::{DMatrix, DVector};
 use serde::Serialize;
 
 /// σ̂² above this: the residuals are larger than the noise the signals carry.
 pub const VARIANCE_FITS: f64 = 2.0;
-/// Lags of the Ljung–Box test.
-const LAGS: usize = 25;
-/// The standard normal's 99.9 % point: each signal's whiteness test at 0.1 %, so that a model
-/// with a handful of white signals passes all of them 99 % of the time.
-const Z_999: f64 = 3.090_232_306_167_813;
+/// A signal the twin follows to this fit % leaves a residual at the data's own precision,
+/// whatever its whiteness (noise-free data replayed on their own model).
+const EXACT_FIT: f64 = 100.0 - 1e-4;
 /// A quantised signal's residual within this share of its step is the quantisation alone.
 const QUANTISED_RESIDUAL: f64 = 0.6;
 /// Longest lag the sandwich estimate sums.
@@ -94,19 +92,17 @@ pub fn judge(
     fits: &[SignalFit],
 ) -> Verdict {
     let outputs = problem.outputs.len();
-    let threshold = chi_square_quantile(LAGS.min(samples(residuals, outputs) / 4).max(1));
     let mut signals = Vec::with_capacity(outputs);
     for (o, fit) in fits.iter().enumerate() {
-        let series = series_of(residuals, outputs, o);
-        let q = ljung_box(&series, LAGS);
+        let test = whiteness_of(&series_of(residuals, outputs, o), WHITENESS_LAGS);
         let quantum = quantum(problem, o);
         let within = quantum.is_some_and(|step| fit.rms_error <= QUANTISED_RESIDUAL * step);
         signals.push(SignalVerdict {
             signal: fit.signal.clone(),
             fit_percent: fit.fit_percent,
-            ljung_box: q,
-            threshold,
-            white: q <= threshold || within,
+            ljung_box: test.ljung_box,
+            threshold: test.threshold,
+            white: test.white || within || fit.fit_percent >= EXACT_FIT,
             quantum,
         });
     }
@@ -155,11 +151,6 @@ fn advice(problem: &Problem, reasons: &[String]) -> Vec<String> {
     advice
 }
 
-/// Rows per signal over all segments.
-fn samples(residuals: &[Vec<f64>], outputs: usize) -> usize {
-    residuals.iter().map(|r| r.len() / outputs.max(1)).sum()
-}
-
 /// Signal `o`'s residuals, one slice per segment.
 fn series_of(residuals: &[Vec<f64>], outputs: usize, o: usize) -> Vec<&[f64]> {
     (residuals.iter())
@@ -195,25 +186,6 @@ fn autocorrelations(series: &[&[f64]], lags: usize) -> (usize, Vec<f64>) {
         })
         .collect();
     (n, correlations)
-}
-
-/// Ljung–Box Q over `lags` lags.
-fn ljung_box(series: &[&[f64]], lags: usize) -> f64 {
-    let n_total: usize = series.iter().map(|s| s.len()).sum();
-    let lags = lags.min(n_total / 4).max(1);
-    let (n, correlations) = autocorrelations(series, lags);
-    let n = n as f64;
-    let sum: f64 = (correlations.iter().enumerate())
-        .map(|(l, r)| r * r / (n - (l + 1) as f64).max(1.0))
-        .sum();
-    n * (n + 2.0) * sum
-}
-
-/// The χ² quantile of `dof` degrees of freedom at the 99.9 % point (Wilson–Hilferty).
-fn chi_square_quantile(dof: usize) -> f64 {
-    let k = dof as f64;
-    let a = 2.0 / (9.0 * k);
-    k * (1.0 - a + Z_999 * a.sqrt()).powi(3)
 }
 
 /// The step of the lattice a fitted signal's logged values lie on (an encoder's count), if
@@ -325,20 +297,20 @@ mod tests {
     use super::*;
 
     #[test]
-    fn white_noise_passes_ljung_box_and_a_drift_fails() {
+    fn white_noise_passes_ljung_box_across_cuts_and_a_drift_fails() {
         let mut noise = crate::sensors::Noise::new(11);
         let white: Vec<f64> = (0..4000).map(|_| noise.gaussian()).collect();
-        let q = ljung_box(&[&white[..2000], &white[2000..]], LAGS);
-        assert!(q < chi_square_quantile(LAGS), "{q}");
+        assert!(whiteness_of(&[&white[..2000], &white[2000..]], WHITENESS_LAGS).white);
         let drift: Vec<f64> = (0..4000).map(|k| (k as f64 * 0.01).sin()).collect();
-        assert!(ljung_box(&[&drift], LAGS) > 10.0 * chi_square_quantile(LAGS));
+        let test = whiteness_of(&[&drift], WHITENESS_LAGS);
+        assert!(test.ljung_box > 10.0 * test.threshold);
     }
 
     #[test]
     fn chi_square_quantile_matches_the_tables() {
         // χ² tables, 99.9 %: 25 dof 52.620, 10 dof 29.588.
-        assert!((chi_square_quantile(25) - 52.620).abs() < 0.2);
-        assert!((chi_square_quantile(10) - 29.588).abs() < 0.3);
+        assert!((super::super::metrics::chi_square_999(25) - 52.620).abs() < 0.2);
+        assert!((super::super::metrics::chi_square_999(10) - 29.588).abs() < 0.3);
     }
 
     #[test]
