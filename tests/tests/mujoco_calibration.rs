@@ -26,12 +26,6 @@ const MUJOCO_DT: f64 = 1e-4;
 const DURATION: f64 = 3.0;
 /// Noise σ on positions (rad, m) and velocities (rad/s, m/s) of the noisy runs.
 const SIGMA: [f64; 2] = [1e-4, 1e-2];
-/// The arm scenario's current loops, rad/s: the twin's near-ideal unit-gain drives lag the
-/// command by about 1/bandwidth, a bias ∝ 1/bandwidth on the estimates (measured noise-free at
-/// 1e5 / 3e5 / 1e6 rad/s: forearm mass −2.43e-5 / −8.10e-6 / −2.43e-6, elbow damping
-/// +6.88e-5 / +2.29e-5 / +6.88e-6, relative), at a cost ∝ bandwidth (the loop is sampled at
-/// 1/bandwidth). 3e5 keeps the bias under 0.7 standard error of the noisy fit.
-const ARM_DRIVE_BANDWIDTH: f64 = 3e5;
 
 fn repo() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -88,9 +82,9 @@ const ARM: Machine = Machine {
     // The free spindle's start state does not act on the arm's signals (the check would refuse
     // it): the three arm joints' only.
     states: Some(&["shoulder", "elbow", "wrist"]),
-    // The arm's actuators take currents: with its unit-gain drives 1 A is 1 N·m.
-    effort_unit: Some("A"),
-    twin: arm_drives,
+    // The arm's drives made ideal: its actuators take MuJoCo's joint torques, N·m.
+    effort_unit: None,
+    twin: arm_ideal_drives,
 };
 
 const WHITWORTH: Machine = Machine {
@@ -284,25 +278,14 @@ impl Machine {
     }
 }
 
-fn arm_drives(builder: ScenarioBuilder) -> ScenarioBuilder {
-    // scripts/bench-calibration's ideal_drives: G·k_t = 1 N·m/A, back-EMF 1e-9 V·s/rad,
-    // current limit the URDF's effort limit; a free spindle (speed loop off, drive 1e-12 A).
-    let mut builder = builder;
-    for (joint, gear, limit) in [
-        ("shoulder", 120.0, 84.0),
-        ("elbow", 120.0, 60.0),
-        ("wrist", 50.0, 20.0),
-    ] {
-        builder = drive(
-            builder,
-            &format!("process.drives.{joint}"),
-            gear,
-            limit,
-            ARM_DRIVE_BANDWIDTH,
-        );
-    }
-    builder = with(builder, "process.spindle.speed", 0.0);
-    builder = with(builder, "process.spindle.speed_bandwidth", 1e-9);
+fn arm_ideal_drives(builder: ScenarioBuilder) -> ScenarioBuilder {
+    // scripts/bench-calibration's: every arm joint's drive ideal (the command is its torque,
+    // N·m); a free spindle (speed loop off, drive 1e-12 A).
+    let builder = builder
+        .set("actuators.\"*\".kind", "effort")
+        .unwrap_or_else(|e| panic!("{e}"));
+    let builder = with(builder, "process.spindle.speed", 0.0);
+    let builder = with(builder, "process.spindle.speed_bandwidth", 1e-9);
     drive(builder, "process.spindle.drive", 1.0, 1e-12, 2000.0)
 }
 
@@ -388,11 +371,12 @@ fn check_noisy(machine: &Machine, result: &Calibration) {
     );
 }
 
-/// The arm, noise-free: what is left is the twin's drive lag. Its bias ∝ 1/bandwidth (measured
+/// The arm, noise-free: what was left was the lag of the unit-gain drives that emulated ideal
+/// ones before `[actuators]`. Its bias ∝ 1/bandwidth (measured
 /// at 1e5 / 3e5 / 1e6 rad/s: forearm mass −2.43e-5 / −8.10e-6 / −2.43e-6, hand mass −4.42e-6 /
 /// −1.48e-6 / −4.46e-7, elbow damping +6.88e-5 / +2.29e-5 / +6.88e-6): extrapolated to an
 /// ideal drive, MuJoCo and the twin agree on the values to better than 1e-7. The tolerances are
-/// about twice the lag's bias at ARM_DRIVE_BANDWIDTH. After the fit the twin follows MuJoCo's
+/// about twice the lag's bias at 3e5 rad/s. After the fit the twin follows MuJoCo's
 /// joints to 1e-5 rad (measured 3.5e-6 / 8.5e-6 / 9.5e-6 rad, the lag's: the README's
 /// open-loop replay at 3e5 rad/s differs by 5.5e-6 rad on the shoulder).
 #[test]

@@ -31,6 +31,7 @@ mod spectrum;
 mod urdf;
 
 pub use linear::{Channel, LinearModel, ModelError, OperatingPoint};
+pub use machines::{ActuatorKind, ActuatorSpec};
 pub use output::{same_file, OutputError, OutputFile};
 pub use physics::{
     AllowedContact, BodyKind, BodyShape, BodySpec, Collision, ContactOptions, Engine, SolverOptions,

@@ -13,6 +13,15 @@
 //! above 1 N·m/A, that clip never acts on a current command within the drive's limit — the drive's
 //! own current limit is the one that binds.
 //!
+//! **Ideal drives.** A scenario may make a joint's drive ideal, `[actuators.<joint>]` (or
+//! `[actuators."*"]`, all three) `kind = "effort"`: the controller's effort for that joint is then
+//! the joint torque itself, in N·m, clipped to the URDF effort limit and applied as it is (the
+//! `[process.drives]` entry is still checked, but its peak torque need not match the URDF's). No
+//! drive, no current: the joint's `<joint>_current` reads 0 A, and its `peak_current` and
+//! `at_limit_fraction` figures are 0. `drive_power = "off"` frees these joints too. The arm's
+//! controllers command currents through their `torque_per_ampere` (`G·k_t`): set it to 1 N·m/A
+//! for them to command torques.
+//!
 //! **Spindle.** The spindle is not a controller actuator: its own speed-controlled drive
 //! ([`spindle`]) turns it, applying the motor torque as a couple on the cutter and the opposite
 //! couple on the hand (the stator's reaction). Its current is measured like the others.
@@ -65,7 +74,8 @@
 mod figures;
 mod spindle;
 
-use super::{joint, link, process_params, Machine, MachineError};
+use super::actuators::{kind_of, ActuatorKind, ActuatorSpecs};
+use super::{effort_unit, joint, link, process_params, Machine, MachineError};
 use crate::mechanism::Mechanism;
 use crate::physics::{Load, MechanismState, NO_DAMPING, NO_STIFFNESS};
 use crate::scene::{colors, Bounds, Drawing, Marker, MarkerSource, Scene};
@@ -143,7 +153,7 @@ struct ProcessParams {
 /// (k_e·G·q̇, 4.2 V per rad/s at the shoulder) until the 48 V supply runs out, beyond
 /// 11.4 rad/s at the shoulder, and from there the back-EMF drives a braking current.
 /// `off`: amplifiers disabled (the spindle's too), windings open: no current, no torque, the
-/// joints swing free.
+/// joints swing free (those with an ideal drive too).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize)]
 #[serde(rename_all = "lowercase")]
 enum DrivePower {
@@ -162,7 +172,8 @@ pub struct Arm {
     spindle_joint: usize,
     hand: usize,
     cutter_link: usize,
-    drives: Vec<Drive>,
+    /// Per arm joint its drive, `None` where the scenario makes it ideal.
+    drives: Vec<Option<Drive>>,
     drive_power: DrivePower,
     spindle: Spindle,
     contour: ContourPath,
@@ -183,7 +194,11 @@ pub struct Arm {
 }
 
 impl Arm {
-    pub fn new(mechanism: &Mechanism, process: &toml::Table) -> Result<Self, MachineError> {
+    pub fn new(
+        mechanism: &Mechanism,
+        process: &toml::Table,
+        actuators: &ActuatorSpecs,
+    ) -> Result<Self, MachineError> {
         let bad = |reason: String| MachineError::BadParameters {
             machine: MACHINE.into(),
             reason,
@@ -194,26 +209,7 @@ impl Arm {
             joint(MACHINE, mechanism, JOINTS[1])?,
             joint(MACHINE, mechanism, JOINTS[2])?,
         ];
-        let drive_params = [
-            params.drives.shoulder,
-            params.drives.elbow,
-            params.drives.wrist,
-        ];
-        let mut drives = Vec::new();
-        for ((&j, name), drive) in joints.iter().zip(JOINTS).zip(drive_params) {
-            let drive = Drive::new(drive).map_err(|e| bad(format!("drives.{name}: {e}")))?;
-            let peak = drive.params().peak_torque();
-            match mechanism.joints[j].effort_limit {
-                Some(limit) if (limit - peak).abs() <= 0.01 * peak => {}
-                other => {
-                    return Err(bad(format!(
-                        "drives.{name}: the URDF effort limit ({other:?} N·m) must be the drive's \
-                         peak joint torque G·k_t·I_max = {peak} N·m"
-                    )))
-                }
-            }
-            drives.push(drive);
-        }
+        let drives = joint_drives(mechanism, joints, &params.drives, actuators).map_err(bad)?;
         let spindle_joint = joint(MACHINE, mechanism, "spindle")?;
         if mechanism.joints[spindle_joint].effort_limit.is_some() {
             return Err(bad(
@@ -315,13 +311,54 @@ impl Arm {
     }
 
     fn currents(&self) -> [f64; 4] {
+        let current = |drive: &Option<Drive>| drive.as_ref().map_or(0.0, Drive::current);
         [
-            self.drives[0].current(),
-            self.drives[1].current(),
-            self.drives[2].current(),
+            current(&self.drives[0]),
+            current(&self.drives[1]),
+            current(&self.drives[2]),
             self.spindle.drive.current(),
         ]
     }
+
+    /// The drive of an arm joint's actuator: `Some(None)` where the scenario makes it ideal,
+    /// `None` for an actuator that is no arm joint.
+    fn drive_of(&self, actuator: &Actuator) -> Option<Option<&Drive>> {
+        let i = JOINTS.iter().position(|&joint| joint == actuator.joint)?;
+        Some(self.drives[i].as_ref())
+    }
+}
+
+/// The drives of the arm joints (`joints`, in [`JOINTS`]' order), each checked; `None` where the
+/// scenario's `[actuators]` makes a joint's drive ideal. A drive's peak joint torque must be the
+/// URDF's effort limit, which says what the joint can take.
+fn joint_drives(
+    mechanism: &Mechanism,
+    joints: [usize; 3],
+    params: &ArmDrives,
+    actuators: &ActuatorSpecs,
+) -> Result<Vec<Option<Drive>>, String> {
+    let drive_params = [params.shoulder, params.elbow, params.wrist];
+    let mut drives = Vec::new();
+    for ((&j, name), drive) in joints.iter().zip(JOINTS).zip(drive_params) {
+        let drive = Drive::new(drive).map_err(|e| format!("drives.{name}: {e}"))?;
+        if kind_of(actuators, name) == ActuatorKind::Effort {
+            drives.push(None);
+            continue;
+        }
+        let peak = drive.params().peak_torque();
+        match mechanism.joints[j].effort_limit {
+            Some(limit) if (limit - peak).abs() <= 0.01 * peak => {}
+            other => {
+                return Err(format!(
+                    "drives.{name}: the URDF effort limit ({other:?} N·m) must be the drive's \
+                     peak joint torque G·k_t·I_max = {peak} N·m (or make the joint's drive ideal: \
+                     [actuators.{name}] kind = \"effort\")"
+                ))
+            }
+        }
+        drives.push(Some(drive));
+    }
+    Ok(drives)
 }
 
 /// A torque `torque` (N·m, counter-clockwise) on `link` as a couple about `centre`.
@@ -370,19 +407,22 @@ impl Machine for Arm {
         ]
     }
 
-    /// The controller commands each drive's current (A), shown with the current it gets.
-    fn command_unit(&self, _actuator: &Actuator) -> Unit {
-        Unit::Ampere
+    /// The controller commands each drive's current (A), shown with the current it gets; an
+    /// ideal drive's torque (N·m).
+    fn command_unit(&self, actuator: &Actuator) -> Unit {
+        match self.drive_of(actuator) {
+            Some(None) => effort_unit(actuator.kind),
+            _ => Unit::Ampere,
+        }
     }
 
-    /// The drive's protection limit, A (the URDF's effort limit is the torque it gives).
+    /// The drive's protection limit, A (the URDF's effort limit is the torque it gives); an ideal
+    /// drive's the URDF's effort limit, N·m.
     fn command_limit(&self, actuator: &Actuator) -> f64 {
-        JOINTS
-            .iter()
-            .position(|&joint| joint == actuator.joint)
-            .map_or(actuator.effort_limit, |i| {
-                self.drives[i].params().current_limit
-            })
+        match self.drive_of(actuator) {
+            Some(Some(drive)) => drive.params().current_limit,
+            _ => actuator.effort_limit,
+        }
     }
 
     fn scene(&self) -> Scene {
@@ -429,10 +469,11 @@ impl Machine for Arm {
             self.cut_force[0].hypot(self.cut_force[1]),
             self.cut.torque,
         ]);
+        let at_limit = |drive: &Option<Drive>| drive.as_ref().is_some_and(Drive::at_limit);
         let at_limit = [
-            self.drives[0].at_limit(),
-            self.drives[1].at_limit(),
-            self.drives[2].at_limit(),
+            at_limit(&self.drives[0]),
+            at_limit(&self.drives[1]),
+            at_limit(&self.drives[2]),
             self.spindle.drive.at_limit(),
         ];
         self.figures.observe(&Sample {
@@ -449,9 +490,10 @@ impl Machine for Arm {
 
     fn drive(&mut self, dt: f64, commanded: &[f64], applied: &mut [f64]) {
         for (a, drive) in self.drives.iter_mut().enumerate() {
-            applied[a] = match self.drive_power {
-                DrivePower::On => drive.step(dt, commanded[a], self.joint_speeds[a]),
-                DrivePower::Off => 0.0,
+            applied[a] = match (self.drive_power, drive) {
+                (DrivePower::On, Some(drive)) => drive.step(dt, commanded[a], self.joint_speeds[a]),
+                (DrivePower::On, None) => commanded[a],
+                (DrivePower::Off, _) => 0.0,
             };
         }
         self.spindle_torque = match self.drive_power {
@@ -544,13 +586,50 @@ fn scene(shoulder: [f64; 2], contour: &ContourPath, stock: &Stock) -> Scene {
 mod tests {
     use super::*;
 
-    fn arm(drive_power: &str) -> Arm {
+    fn arm_with(drive_power: &str, actuators: &str) -> Arm {
         let text = include_str!("../../../urdf/arm.urdf");
         let mechanism = crate::urdf::load_str(text, "arm.urdf").expect("loads");
         let process: toml::Table = format!("drive_power = \"{drive_power}\"")
             .parse()
             .expect("toml");
-        Arm::new(&mechanism, &process).expect("builds")
+        let actuators: ActuatorSpecs = toml::from_str(actuators).expect("toml");
+        Arm::new(&mechanism, &process, &actuators).expect("builds")
+    }
+
+    fn arm(drive_power: &str) -> Arm {
+        arm_with(drive_power, "")
+    }
+
+    #[test]
+    fn an_ideal_drive_applies_its_command_and_has_no_current() {
+        let mut arm = arm_with("on", "elbow.kind = \"effort\"");
+        arm.joint_speeds = [3.0, -2.0, 5.0];
+        let shoulder = Actuator {
+            joint: "shoulder".into(),
+            kind: framework::EffortKind::Torque,
+            effort_limit: 84.0,
+        };
+        let elbow = Actuator {
+            joint: "elbow".into(),
+            ..shoulder.clone()
+        };
+        assert_eq!(arm.command_unit(&shoulder), Unit::Ampere);
+        assert_eq!(arm.command_limit(&shoulder), 20.0);
+        assert_eq!(arm.command_unit(&elbow), Unit::NewtonMetre);
+        assert_eq!(arm.command_limit(&elbow), 84.0);
+        let mut applied = [0.0; 3];
+        for _ in 0..10 {
+            arm.drive(1e-3, &[5.0, -37.25, 2.0], &mut applied);
+            // The elbow's torque as commanded, bit for bit, beside two drives that lag it.
+            assert_eq!(applied[1], -37.25);
+            assert_ne!(applied[0], 5.0 * 4.2);
+            assert_eq!(arm.currents()[1], 0.0);
+        }
+        assert!(arm.currents()[0] > 0.0);
+        // Power off frees the ideal joint too.
+        let mut off = arm_with("off", "\"*\".kind = \"effort\"");
+        off.drive(1e-3, &[5.0, -37.25, 2.0], &mut applied);
+        assert_eq!(applied, [0.0; 3]);
     }
 
     #[test]

@@ -11,6 +11,9 @@
 //! `k_t` = 2 A/V and `K_a` = 50 N/A (§V); a peak current of 10 A, the order of a linear motor of
 //! this force constant (500 N peak, which the URDF's `<limit effort>` matches). The current is the
 //! machine's measured signal `table_current` (A), the current that flowed over the last step.
+//! `[actuators.table] kind = "effort"` makes the drive ideal: the force command is the table's
+//! force, clipped to the URDF effort limit only, with no current (`table_current`, `peak_current`
+//! and `current_limited_fraction` read 0).
 //!
 //! **Cut.** With `[process] cutting = true` the cut's force on the table along its axis,
 //! [`MicroMillingCut::force_on_axis`] at the step's start time and the table's velocity, acts as a
@@ -22,6 +25,7 @@
 //! scenario's `[reference]`, handed to the controller unchanged) and report their largest
 //! magnitude and σ, the columns of Table I (see `twin::evaluate`).
 
+use super::actuators::{kind_of, ActuatorKind, ActuatorSpecs};
 use super::{default_joint_signals, joint, process_params, Machine, MachineError};
 use crate::mechanism::{Joint, JointMotion, Mechanism, Pose2};
 use crate::physics::{Load, MechanismState, NO_DAMPING, NO_STIFFNESS};
@@ -96,6 +100,8 @@ pub struct FeedAxis {
     /// Index of the table's actuator among the actuated joints.
     table_actuator: usize,
     drive: Drive,
+    /// The scenario makes the drive ideal (`[actuators]`): the amplifier is left out.
+    ideal: bool,
     cut: Option<MicroMillingCut>,
     cutting_force: f64,
     /// Process-fault factor on the cutting forces (1: none).
@@ -104,7 +110,11 @@ pub struct FeedAxis {
 }
 
 impl FeedAxis {
-    pub fn new(mechanism: &Mechanism, process: &toml::Table) -> Result<Self, MachineError> {
+    pub fn new(
+        mechanism: &Mechanism,
+        process: &toml::Table,
+        actuators: &ActuatorSpecs,
+    ) -> Result<Self, MachineError> {
         let bad = |reason: String| MachineError::BadParameters {
             machine: MACHINE.into(),
             reason,
@@ -156,6 +166,7 @@ impl FeedAxis {
                 steps: 0,
                 limited_steps: 0,
             },
+            ideal: kind_of(actuators, TABLE_JOINT) == ActuatorKind::Effort,
             cut: params.cutting.then_some(cut),
             cutting_force: 0.0,
             process_factor: 1.0,
@@ -237,7 +248,9 @@ impl Machine for FeedAxis {
 
     fn drive(&mut self, _dt: f64, commanded: &[f64], applied: &mut [f64]) {
         applied.copy_from_slice(commanded);
-        applied[self.table_actuator] = self.drive.force(commanded[self.table_actuator]);
+        if !self.ideal {
+            applied[self.table_actuator] = self.drive.force(commanded[self.table_actuator]);
+        }
     }
 
     fn set_process_factor(&mut self, factor: f64) -> bool {

@@ -1,6 +1,8 @@
 //! Machines: what each mechanism measures in its own words (task-space and process signals), the
-//! process loads it suffers, and the figures a run of it is judged by.
+//! process loads it suffers, its drives (or the scenario's ideal ones, [`actuators`]), and the
+//! figures a run of it is judged by.
 
+mod actuators;
 mod arm;
 mod feed_axis;
 mod lathe;
@@ -14,6 +16,8 @@ use crate::scene::Scene;
 use framework::{Actuator, EffortKind, SignalSpec, Unit};
 use thiserror::Error;
 
+pub use actuators::{ActuatorKind, ActuatorSpec, ActuatorSpecs};
+
 #[derive(Debug, Error, Clone, PartialEq)]
 pub enum MachineError {
     #[error("unknown machine `{name}` (known: {known})")]
@@ -26,6 +30,9 @@ pub enum MachineError {
     },
     #[error("machine `{machine}`: bad [process] parameters: {reason}")]
     BadParameters { machine: String, reason: String },
+    /// An `[actuators]` entry naming no actuator, or a kind the actuator cannot be.
+    #[error("{key}: {reason}")]
+    Actuator { key: String, reason: String },
 }
 
 /// A machine built on a loaded mechanism.
@@ -93,7 +100,9 @@ pub trait Machine: Send {
     /// The drives between controller and joints, stepped every physics step: turn each commanded
     /// effort (already clipped to the URDF limit, held between control periods) into the effort
     /// the joint receives — through an amplifier's current limit or a motor model — and keep
-    /// their state (currents) for `measure`. The default is an ideal drive.
+    /// their state (currents) for `measure`. The default is an ideal drive. A machine with drives
+    /// of its own passes the command of an actuator the scenario makes ideal
+    /// (`[actuators.<joint>] kind = "effort"`, given to its constructor) through as it is.
     fn drive(&mut self, _dt: f64, commanded: &[f64], applied: &mut [f64]) {
         applied.copy_from_slice(commanded);
     }
@@ -205,24 +214,32 @@ pub const MACHINES: &[&str] = &[
     "milling",
 ];
 
-/// Builds the machine `name` on `mechanism` with the scenario's `[process]` table.
+/// Builds the machine `name` on `mechanism` with the scenario's `[process]` table and its
+/// `[actuators]` (the drives it makes ideal; an entry naming no actuator is refused). The
+/// whitworth, lathe and milling machines have no drives of their own: their actuators are ideal
+/// whatever the kind.
 pub fn build(
     name: &str,
     mechanism: &Mechanism,
     process: &toml::Table,
+    actuators: &ActuatorSpecs,
 ) -> Result<Box<dyn Machine>, MachineError> {
-    match name {
-        "arm" => Ok(Box::new(arm::Arm::new(mechanism, process)?)),
-        "whitworth" => Ok(Box::new(whitworth::Whitworth::new(mechanism, process)?)),
-        "platform" => Ok(Box::new(platform::Platform::new(mechanism, process)?)),
-        "feed_axis" => Ok(Box::new(feed_axis::FeedAxis::new(mechanism, process)?)),
-        "lathe" => Ok(Box::new(lathe::ParallelLathe::new(mechanism, process)?)),
-        "milling" => Ok(Box::new(milling::Milling::new(mechanism, process)?)),
-        _ => Err(MachineError::Unknown {
-            name: name.to_string(),
-            known: MACHINES.join(", "),
-        }),
-    }
+    let machine: Box<dyn Machine> = match name {
+        "arm" => Box::new(arm::Arm::new(mechanism, process, actuators)?),
+        "whitworth" => Box::new(whitworth::Whitworth::new(mechanism, process)?),
+        "platform" => Box::new(platform::Platform::new(mechanism, process, actuators)?),
+        "feed_axis" => Box::new(feed_axis::FeedAxis::new(mechanism, process, actuators)?),
+        "lathe" => Box::new(lathe::ParallelLathe::new(mechanism, process)?),
+        "milling" => Box::new(milling::Milling::new(mechanism, process)?),
+        _ => {
+            return Err(MachineError::Unknown {
+                name: name.to_string(),
+                known: MACHINES.join(", "),
+            })
+        }
+    };
+    actuators::check_entries(actuators, mechanism, &machine.extra_actuators())?;
+    Ok(machine)
 }
 
 /// Reads a machine's `[process]` table into its parameter struct; the error quotes the bad entry.

@@ -20,6 +20,7 @@
 
 mod motor;
 
+use super::actuators::{key_of, kind_of, ActuatorKind, ActuatorSpecs};
 use super::{link, process_params, Machine, MachineError};
 use crate::mechanism::{wrap_angle, Mechanism, Pose2};
 use crate::physics::{Load, MechanismState, NO_DAMPING, NO_STIFFNESS};
@@ -116,7 +117,11 @@ struct Figures {
 }
 
 impl Platform {
-    pub fn new(mechanism: &Mechanism, process: &toml::Table) -> Result<Self, MachineError> {
+    pub fn new(
+        mechanism: &Mechanism,
+        process: &toml::Table,
+        actuators: &ActuatorSpecs,
+    ) -> Result<Self, MachineError> {
         let bad = |reason: String| MachineError::BadParameters {
             machine: "platform".into(),
             reason,
@@ -151,6 +156,7 @@ impl Platform {
                 "the URDF must declare exactly two driven <wheel>s".into()
             ));
         }
+        ideal_wheels_refused(mechanism, actuators)?;
         let poses = mechanism.zero_pose();
         let start_pose = poses[chassis];
         let start = start_pose.apply(params.point_h[0], params.point_h[1]);
@@ -231,6 +237,30 @@ impl Platform {
     fn driven(&self) -> impl Iterator<Item = &WheelState> {
         self.wheels.iter().filter(|w| w.actuator.is_some())
     }
+}
+
+/// The driven wheels are the platform's own actuators: their torque spins the wheel model (the
+/// gear motor's reflected inertia and damping, the tyre), not a joint, so an ideal drive has
+/// nothing to apply it to; `[process.motor]` sets the motor instead.
+fn ideal_wheels_refused(
+    mechanism: &Mechanism,
+    actuators: &ActuatorSpecs,
+) -> Result<(), MachineError> {
+    let driven = mechanism.wheels.iter().filter(|w| w.effort_limit.is_some());
+    for wheel in driven {
+        if kind_of(actuators, &wheel.name) == ActuatorKind::Effort {
+            return Err(MachineError::Actuator {
+                key: key_of(actuators, &wheel.name),
+                reason: format!(
+                    "the platform's wheel `{}` is driven through the machine's own wheel model \
+                     (gear motor and tyre), not a joint, so it cannot take an ideal drive; use \
+                     kind = \"drive\" and set its motor in [process.motor]",
+                    wheel.name
+                ),
+            });
+        }
+    }
+    Ok(())
 }
 
 impl Machine for Platform {

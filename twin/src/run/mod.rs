@@ -55,8 +55,8 @@ pub enum TwinError {
     /// The scenario's URDF cannot be read or makes no planar mechanism.
     #[error(transparent)]
     Urdf(#[from] UrdfError),
-    /// A machine's checks cover the scenario's `[process]` table and the URDF's geometry: both
-    /// files are named.
+    /// A machine's checks cover the scenario's `[process]` and `[actuators]` tables and the
+    /// URDF's geometry: both files are named.
     #[error("{scenario} (URDF {urdf}): {source}")]
     Machine {
         /// Where the scenario came from.
@@ -200,8 +200,8 @@ impl Twin {
         scenario.plant.apply(&mut mechanism).map_err(binding)?;
         let initial = initial_states(scenario, &mechanism).map_err(binding)?;
         let contacts = contact_detector(scenario, &mechanism).map_err(binding)?;
-        let mut machine = machines::build(&scenario.machine, &mechanism, &scenario.process)
-            .map_err(|source| TwinError::Machine {
+        let mut machine =
+            build_machine(scenario, &mechanism).map_err(|source| TwinError::Machine {
                 scenario: loaded.source.clone(),
                 urdf: loaded.urdf_source.clone(),
                 source,
@@ -705,6 +705,19 @@ fn initial_states(
             Ok((joint, state.position, state.velocity))
         })
         .collect()
+}
+
+/// The scenario's machine built afresh on `mechanism`, with its `[process]` and `[actuators]`.
+fn build_machine(
+    scenario: &Scenario,
+    mechanism: &Mechanism,
+) -> Result<Box<dyn Machine>, MachineError> {
+    machines::build(
+        &scenario.machine,
+        mechanism,
+        &scenario.process,
+        &scenario.actuators,
+    )
 }
 
 /// An actuator per actuated tree joint.

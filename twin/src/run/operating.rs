@@ -3,10 +3,10 @@
 
 use super::observer::{Observer, ObserverError, StepView};
 use super::session::Session;
+use super::{build_machine, SignalLayout, Twin};
 use super::{Divergence, TwinError};
-use super::{SignalLayout, Twin};
 use crate::linear::{self, Channel, Description, LinearModel, ModelError, Plant};
-use crate::machines::{self, Machine};
+use crate::machines::Machine;
 use crate::mechanism::{JointMotion, Mechanism};
 use crate::physics::{Load, MechanismState, ReducedDynamics};
 use framework::EffortKind;
@@ -144,8 +144,8 @@ impl Twin {
     pub(crate) fn start_parts(mut self) -> Result<ModelParts, LinearizeError> {
         let capture = self.capture(0.0)?;
         let scenario = &self.loaded.scenario;
-        let machine = machines::build(&scenario.machine, &self.mechanism, &scenario.process)
-            .map_err(|source| TwinError::Machine {
+        let machine =
+            build_machine(scenario, &self.mechanism).map_err(|source| TwinError::Machine {
                 scenario: self.loaded.source.clone(),
                 urdf: self.loaded.urdf_source.clone(),
                 source,
@@ -194,7 +194,7 @@ impl Twin {
         let coordinates = dynamics.coordinates();
         let (kept, outputs_left_out) = self.state_signals(point);
         let layout = &self.layout;
-        let build = || machines::build(&scenario.machine, &self.mechanism, &scenario.process).ok();
+        let build = || build_machine(scenario, &self.mechanism).ok();
         let mut all = vec![0.0; layout.signals.len()];
         let mut diagnostics = vec![0.0; layout.specs.diagnostics.len()];
         let mut outputs = |state: &MechanismState, values: &mut Vec<f64>| {
@@ -281,8 +281,7 @@ impl Twin {
         let mut left_out = Vec::new();
         let scenario = &self.loaded.scenario;
         let fresh = |push: f64| -> Option<Vec<f64>> {
-            let mut machine =
-                machines::build(&scenario.machine, &self.mechanism, &scenario.process).ok()?;
+            let mut machine = build_machine(scenario, &self.mechanism).ok()?;
             let commands: Vec<f64> = point.applied.iter().map(|e| e + push).collect();
             let mut applied = commands.clone();
             machine.drive(scenario.dt, &commands, &mut applied);

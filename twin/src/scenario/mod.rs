@@ -17,6 +17,7 @@ pub use builtin::BUILTIN;
 pub use metrics::{MetricKind, MetricSpec};
 
 use crate::faults::FaultSpec;
+use crate::machines::ActuatorSpecs;
 use crate::physics::{AllowedContact, BodySpec, ContactOptions, SolverOptions};
 use crate::plant::PlantValues;
 use crate::sensors::SensorSpec;
@@ -115,6 +116,12 @@ pub struct Scenario {
     /// Machine-specific process parameters (contact forces, geometry checks).
     #[serde(default)]
     pub process: toml::Table,
+    /// How each actuator turns its command into the joint's effort (`[actuators.<joint>]`, or
+    /// `[actuators."*"]` for every one): `kind = "drive"` (the default) through the machine's own
+    /// drive, `kind = "effort"` directly, the command the joint's torque or force. Checked
+    /// against the machine's actuators when the twin is built.
+    #[serde(default)]
+    pub actuators: ActuatorSpecs,
     /// Sensor models by measured signal name.
     #[serde(default)]
     pub sensors: BTreeMap<String, SensorSpec>,

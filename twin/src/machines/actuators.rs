@@ -1,0 +1,90 @@
+//! `[actuators.<joint>]`: how the scenario has each actuator turn its command into the joint's
+//! effort — through the machine's own drive (`kind = "drive"`, the default), or directly, as an
+//! ideal drive (`kind = "effort"`: the command is the joint's torque, N·m, or force, N, clipped
+//! to the URDF `<limit effort>`). `[actuators."*"]` speaks for every actuator of the machine; a
+//! joint's own entry overrides it. The table is made to grow: a later kind (a DC servo from its
+//! data sheet) is another [`ActuatorKind`] with its fields in [`ActuatorSpec`].
+
+use super::MachineError;
+use crate::mechanism::Mechanism;
+use framework::Actuator;
+use serde::Deserialize;
+use std::collections::BTreeMap;
+
+/// The `[actuators]` key that stands for every actuator of the machine.
+pub const EVERY_ACTUATOR: &str = "*";
+
+/// What an actuator's command is.
+#[derive(Debug, Clone, Copy, Default, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "kebab-case")]
+pub enum ActuatorKind {
+    /// The machine's own drive: the command is what that drive takes (the arm's motor current,
+    /// A). On a machine without drives of its own the same as `Effort`.
+    #[default]
+    Drive,
+    /// An ideal drive: the command is the joint's torque (N·m) or force (N), clipped to the URDF
+    /// effort limit and applied as it is, with no drive state (no current) of its own.
+    Effort,
+}
+
+/// One entry of `[actuators]`.
+#[derive(Debug, Clone, Copy, Default, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields, default)]
+pub struct ActuatorSpec {
+    /// `drive` (the default) or `effort`.
+    pub kind: ActuatorKind,
+}
+
+/// The scenario's `[actuators]` table: entries by joint name, or [`EVERY_ACTUATOR`].
+pub type ActuatorSpecs = BTreeMap<String, ActuatorSpec>;
+
+/// The kind `specs` gives the actuator on `joint`: its own entry's, else `"*"`'s, else `drive`.
+pub fn kind_of(specs: &ActuatorSpecs, joint: &str) -> ActuatorKind {
+    specs
+        .get(joint)
+        .or_else(|| specs.get(EVERY_ACTUATOR))
+        .map_or(ActuatorKind::Drive, |spec| spec.kind)
+}
+
+/// The entry that gives `joint` its kind, as the scenario spells it: `actuators.<joint>` or
+/// `actuators."*"`.
+pub fn key_of(specs: &ActuatorSpecs, joint: &str) -> String {
+    if specs.contains_key(joint) {
+        format!("actuators.{joint}")
+    } else {
+        format!("actuators.\"{EVERY_ACTUATOR}\"")
+    }
+}
+
+/// Refuses an entry that names no actuator of the machine (the URDF's actuated joints and the
+/// machine's `own` actuators), saying which ones there are.
+pub(super) fn check_entries(
+    specs: &ActuatorSpecs,
+    mechanism: &Mechanism,
+    own: &[Actuator],
+) -> Result<(), MachineError> {
+    let mut known: Vec<&str> = (mechanism.actuated_joints().into_iter())
+        .map(|j| mechanism.joints[j].name.as_str())
+        .collect();
+    known.extend(own.iter().map(|a| a.joint.as_str()));
+    for name in specs.keys() {
+        if name == EVERY_ACTUATOR || known.contains(&name.as_str()) {
+            continue;
+        }
+        let part_of_mechanism = mechanism.joint_index(name).is_some()
+            || mechanism.wheels.iter().any(|w| &w.name == name);
+        let what = if part_of_mechanism {
+            format!("`{name}` is not an actuator (the URDF gives it no <limit effort>)")
+        } else {
+            format!("the URDF has no joint `{name}`")
+        };
+        return Err(MachineError::Actuator {
+            key: key_of(specs, name),
+            reason: format!(
+                "{what}; name one of the machine's actuators ({}) or \"{EVERY_ACTUATOR}\"",
+                known.join(", ")
+            ),
+        });
+    }
+    Ok(())
+}
