@@ -61,8 +61,8 @@ pub mod signal {
 /// observer.
 pub mod data {
     pub use crate::run_data::{
-        parse_renames, ColumnRole, DataColumn, DataError, DataRate, PlantColumns, RunData,
-        RunTable, Trace, MAX_DATA_BYTES,
+        left_out_note, parse_renames, ColumnRole, DataColumn, DataError, DataRate, Delimiter,
+        PlantColumns, ReadOptions, RunData, RunTable, Trace, UnreadColumn, MAX_DATA_BYTES,
     };
 }
 

@@ -4,13 +4,14 @@
 //! fits before and after, the cost per iteration and the intervals (calibration.rrd).
 
 use crate::compare::{rate_line, table_judged};
+use crate::data_flags::{plant_columns, read_run, DataFlags};
 use crate::failure::Failure;
 use crate::fit_figures::{cost_plot, interval_plot, time_plot, AFTER, BEFORE, MEASURED};
 use framework::Registry;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use twin::calibration::{calibrate, Calibration, CalibrationOptions, FitParameter, StartStates};
-use twin::data::{parse_renames, RunData};
+use twin::data::{ReadOptions, RunData};
 use twin::recordings::write_figures;
 use twin::{CalibrationSpec, OutputFile, Overrides, Scenario};
 
@@ -69,9 +70,9 @@ pub struct CalibrateArgs {
     /// Threads for the rollouts (0: every core).
     #[arg(long, default_value_t = 0)]
     pub threads: usize,
-    /// Rename a column of the data before reading it (`OLD=NEW`).
-    #[arg(long = "map", value_name = "OLD=NEW")]
-    pub map: Vec<String>,
+    /// How the runs are read (after the scenario's `[calibration.rename]`).
+    #[command(flatten)]
+    pub reading: DataFlags,
     /// Override a scenario value (as `twin run --set`) before the fit.
     #[arg(long = "set", value_name = "KEY=VALUE")]
     pub set: Vec<String>,
@@ -90,11 +91,12 @@ pub fn run(args: &CalibrateArgs, registry: &Registry) -> Result<ExitCode, Failur
     let builder = Scenario::open(&args.scenario)?.overrides(&overrides)?;
     let spec = (builder.clone().build(registry)?.scenario.calibration).unwrap_or_default();
     let folder = scenario_folder(&args.scenario);
-    let (options, renames) = options(args, &spec)?;
+    let (options, reading) = options(args, &spec)?;
+    let plant = plant_columns(&builder, registry)?;
     let read = |paths: &[PathBuf]| -> Result<Vec<RunData>, Failure> {
         paths
             .iter()
-            .map(|p| Ok(RunData::read(p, &renames)?))
+            .map(|p| read_run(p, &reading, &plant))
             .collect()
     };
     let data = read(&merged_paths(&args.data, &spec.data, &folder))?;
@@ -146,7 +148,7 @@ fn merged_paths(given: &[PathBuf], table: &[String], folder: &Path) -> Vec<PathB
 fn options(
     args: &CalibrateArgs,
     spec: &CalibrationSpec,
-) -> Result<(CalibrationOptions, Vec<(String, String)>), Failure> {
+) -> Result<(CalibrationOptions, ReadOptions), Failure> {
     let mut parameters: Vec<FitParameter> = FitParameter::from_table(spec);
     for fit in &args.fit {
         let (key, start) = match fit.split_once('=') {
@@ -181,8 +183,6 @@ fn options(
         ));
     }
     let noise = noise_levels(&args.noise, spec)?;
-    let mut map: Vec<String> = spec.map.iter().map(|(a, b)| format!("{a}={b}")).collect();
-    map.extend(args.map.iter().cloned());
     let states = args
         .states
         .as_deref()
@@ -203,7 +203,7 @@ fn options(
         max_iterations: args.max_iterations,
         threads: args.threads,
     };
-    Ok((options, parse_renames(&map)?))
+    Ok((options, args.reading.options(&spec.rename)?))
 }
 
 /// The signals' noise σ: the table's, with `--noise NAME=SIGMA` on top.

@@ -3,6 +3,7 @@
 //! whiteness test per signal; into OUT_DIR the report (comparison.json) and a recording of the
 //! overlays, residuals and their spectra (comparison.rrd).
 
+use crate::data_flags::{plant_columns, DataFlags};
 use crate::failure::Failure;
 use crate::fit_figures::{residual_spectra, time_plot, BEFORE, MEASURED, RESIDUAL};
 use framework::Registry;
@@ -11,7 +12,7 @@ use std::process::ExitCode;
 use twin::calibration::{
     compare, CalibrationOptions, Comparison, SegmentFit, SignalFit, SignalVerdict, StartStates,
 };
-use twin::data::{parse_renames, DataRate, RunData};
+use twin::data::DataRate;
 use twin::recordings::write_figures;
 use twin::{OutputFile, Overrides, Scenario};
 
@@ -24,9 +25,9 @@ pub struct CompareArgs {
     /// actuators' commands `effort.<joint> [unit]` and measured signals `<signal> [unit]`.
     #[arg(long, required = true)]
     pub data: PathBuf,
-    /// Rename a column of the data before reading it (`OLD=NEW`, e.g. `X1=crank.position`).
-    #[arg(long = "map", value_name = "OLD=NEW")]
-    pub map: Vec<String>,
+    /// How the data are read.
+    #[command(flatten)]
+    pub reading: DataFlags,
     /// Run the scenario's controller on the logged reference instead of replaying the logged
     /// commands.
     #[arg(long)]
@@ -59,8 +60,7 @@ pub fn run(args: &CompareArgs, registry: &Registry) -> Result<ExitCode, Failure>
         ..Overrides::default()
     };
     let builder = Scenario::open(&args.scenario)?.overrides(&overrides)?;
-    let renames = parse_renames(&args.map)?;
-    let data = RunData::read(&args.data, &renames)?;
+    let data = (args.reading).read(&args.data, &plant_columns(&builder, registry)?)?;
     let spec = (builder.clone().build(registry)?.scenario.calibration).unwrap_or_default();
     let options = CalibrationOptions {
         segment: args.segment,

@@ -9,6 +9,7 @@ pub mod bench;
 pub mod calibrate;
 pub mod command_line;
 pub mod compare;
+pub mod data_flags;
 mod engine_option;
 pub mod failure;
 mod fit_figures;

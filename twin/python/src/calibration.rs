@@ -3,32 +3,35 @@
 //! Each returns the command's JSON report as a dict (`report`) beside the series it compared, as
 //! NumPy arrays on the control-period grid.
 
+use crate::errors::from_calibration;
 use crate::errors::ScenarioError;
-use crate::errors::{from_calibration, from_data};
-use crate::measured::{entries, from_json, grid, kind, paths, refuse, renamed, strings};
+use crate::measured::{entries, from_json, grid, kind, paths, plant_columns, read_options};
+use crate::measured::{read_run, refuse, strings};
 use crate::scenario::Scenario;
 use numpy::PyArray1;
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList, PyString};
 use std::path::{Path, PathBuf};
 use twin::calibration::{
-    self, Calibration, CalibrationOptions, FitParameter, Iteration, RunFit, StartStates,
+    self, Calibration, CalibrationError, CalibrationOptions, FitParameter, Iteration, RunFit,
+    StartStates,
 };
-use twin::data::{parse_renames, RunData};
+use twin::data::{ReadOptions, RunData};
 use twin::{CalibrationSpec, ScenarioBuilder};
 
 /// Fits scenario values to measured runs, as `twin calibrate` does (the scenario's
 /// `[calibration]` table, if any, gives what the call leaves out). Returns a dict: `report` (as
 /// calibration.json: `parameters` with each `key`, `start`, `estimate`, `standard_error`,
 /// `interval`, `at_bound`; `correlation`; `runs` and `validation` with their fits `before`
-/// and `after`; `warnings`; …), `calibrated_toml`, `scenario` (the calibrated `Scenario`) and
-/// per run and validation run its series (`runs`, `validation`). `progress(iteration, cost,
-/// step)` is called at each accepted step of the solve.
+/// and `after`; `warnings`; …), `calibrated_toml`, `scenario` (the calibrated `Scenario`), per
+/// run and validation run its series (`runs`, `validation`) and `notes` (the columns left out,
+/// one line per file). `progress(iteration, cost, step)` is called at each accepted step of the
+/// solve. `rename`, `delimiter` and `strict` read the runs as `Scenario.compare` does.
 #[pyfunction]
 #[pyo3(signature = (
     scenario, data=None, *, fit=None, bounds=None, per_run=None, validate=None, signals=None,
     noise=None, segment=None, states=None, closed_loop=false, starts=None, max_iterations=50,
-    threads=0, map=None, progress=None
+    threads=0, rename=None, delimiter=None, strict=false, progress=None
 ))]
 // One keyword per option of `twin calibrate`.
 #[allow(clippy::too_many_arguments)]
@@ -48,10 +51,13 @@ pub fn calibrate<'py>(
     starts: Option<usize>,
     max_iterations: usize,
     threads: usize,
-    map: Option<&Bound<'py, PyAny>>,
+    rename: Option<&Bound<'py, PyAny>>,
+    delimiter: Option<&str>,
+    strict: bool,
     progress: Option<Py<PyAny>>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let scenario = scenario_of(scenario)?;
+    let spec = scenario.load()?.scenario.calibration.unwrap_or_default();
     let request = Request {
         data: paths("data", data)?,
         validate: paths("validate", validate)?,
@@ -66,17 +72,18 @@ pub fn calibrate<'py>(
         starts,
         max_iterations,
         threads,
-        map: renamed(map)?,
+        reading: read_options(rename, &spec.rename, delimiter, strict)?,
     };
-    let spec = scenario.load()?.scenario.calibration.unwrap_or_default();
     let plan = request.plan(&spec, scenario.folder())?;
     let mut progress = Progress::new(py, progress)?;
     let outcome = py.detach(|| plan.run(scenario.builder(), &mut progress));
     if let Some(error) = progress.error.take() {
         return Err(error);
     }
-    let outcome = outcome.map_err(from_calibration)?;
-    calibration_dict(py, &scenario, &outcome)
+    let (outcome, notes) = outcome.map_err(from_calibration)?;
+    let dict = calibration_dict(py, &scenario, &outcome)?;
+    dict.set_item("notes", notes)?;
+    Ok(dict)
 }
 
 /// The scenario argument: a `Scenario`, or a built-in name or file path as `Scenario()` takes.
@@ -108,14 +115,14 @@ struct Request {
     starts: Option<usize>,
     max_iterations: usize,
     threads: usize,
-    /// Column renames as `old=new`.
-    map: Vec<String>,
+    /// How the runs are read.
+    reading: ReadOptions,
 }
 
 /// A calibration ready to run: its options and the runs to read.
 struct Plan {
     options: CalibrationOptions,
-    renames: Vec<(String, String)>,
+    reading: ReadOptions,
     data: Vec<PathBuf>,
     validate: Vec<PathBuf>,
 }
@@ -130,8 +137,6 @@ impl Request {
             noise.retain(|(n, _)| *n != name);
             noise.push((name, sigma));
         }
-        let mut map: Vec<String> = spec.map.iter().map(|(a, b)| format!("{a}={b}")).collect();
-        map.extend(self.map);
         let table_states = || StartStates::parse(spec.states.as_deref().unwrap_or("auto"));
         let folder = folder.unwrap_or(Path::new(""));
         let runs = |given: Vec<PathBuf>, table: &[String]| match given.is_empty() {
@@ -159,7 +164,7 @@ impl Request {
         };
         Ok(Plan {
             options,
-            renames: parse_renames(&map).map_err(from_data)?,
+            reading: self.reading,
             data,
             validate: runs(self.validate, &spec.validate),
         })
@@ -199,29 +204,36 @@ fn fitted<'a>(
 }
 
 impl Plan {
-    /// Reads the runs and calibrates, each accepted step reported to `progress`.
+    /// Reads the runs (the columns the scenario does not know left out, with the notes saying
+    /// which) and calibrates, each accepted step reported to `progress`.
     fn run(
         &self,
         builder: &ScenarioBuilder,
         progress: &mut Progress,
-    ) -> Result<Calibration, calibration::CalibrationError> {
-        let read = |paths: &[PathBuf]| -> Result<Vec<RunData>, twin::data::DataError> {
-            paths
-                .iter()
-                .map(|p| RunData::read(p, &self.renames))
-                .collect()
+    ) -> Result<(Calibration, Vec<String>), CalibrationError> {
+        let registry = controllers::builtin();
+        let plant = plant_columns(builder, &registry)?;
+        let mut notes = Vec::new();
+        let mut read = |paths: &[PathBuf]| -> Result<Vec<RunData>, CalibrationError> {
+            let mut runs = Vec::with_capacity(paths.len());
+            for path in paths {
+                let (run, note) = read_run(path, &self.reading, &plant)?;
+                runs.push(run);
+                notes.extend(note);
+            }
+            Ok(runs)
         };
         let (data, validate) = (read(&self.data)?, read(&self.validate)?);
-        let registry = controllers::builtin();
         let mut report = |step: &Iteration| progress.report(step);
-        calibration::calibrate(
+        let calibration = calibration::calibrate(
             builder,
             &registry,
             &data,
             &validate,
             &self.options,
             &mut report,
-        )
+        )?;
+        Ok((calibration, notes))
     }
 }
 

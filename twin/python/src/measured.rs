@@ -1,15 +1,17 @@
-//! Reading Python arguments for the measured-run entry points (their names in messages), and
-//! `Scenario.compare`: the run read, replayed on the scenario and returned as its JSON report
-//! beside the compared series as NumPy arrays.
+//! Reading Python arguments for the measured-run entry points (their names in messages), reading
+//! a run as they ask (`rename`, `delimiter`, `strict`), and `Scenario.compare`: the run read,
+//! replayed on the scenario and returned as its JSON report beside the compared series as NumPy
+//! arrays.
 
 use crate::errors::{from_calibration, from_data, CalibrationError as PyCalibrationError};
 use numpy::PyArray1;
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyString};
+use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
-use twin::calibration;
-use twin::data::{parse_renames, RunData};
-use twin::ScenarioBuilder;
+use twin::calibration::{self, CalibrationError};
+use twin::data::{left_out_note, parse_renames, PlantColumns, ReadOptions, RunData};
+use twin::{ScenarioBuilder, Simulator};
 
 /// An argument refused, named as the keyword that gave it.
 pub fn refuse(argument: &str, reason: impl std::fmt::Display) -> PyErr {
@@ -22,26 +24,29 @@ pub fn kind(value: &Bound<'_, PyAny>) -> String {
     name.map(|n| n.to_string()).unwrap_or_default()
 }
 
-/// `Scenario.compare`: the run in `data` read (its columns renamed by `map`) and replayed on the
-/// scenario of `builder`, with the GIL released while the twin works.
+/// `Scenario.compare`: the run in `data` read as `reading` asks and replayed on the scenario of
+/// `builder`, with the GIL released while the twin works.
 pub fn compare<'py>(
     py: Python<'py>,
     builder: &ScenarioBuilder,
     data: &Path,
     closed_loop: bool,
-    map: Option<&Bound<'py, PyAny>>,
+    reading: &ReadOptions,
 ) -> PyResult<Bound<'py, PyDict>> {
-    let renames = parse_renames(&renamed(map)?).map_err(from_data)?;
     let comparison = py.detach(|| {
-        let run = RunData::read(data, &renames)?;
+        let registry = controllers::builtin();
+        let plant = plant_columns(builder, &registry)?;
+        let (run, notes) = read_run(data, reading, &plant)?;
         let options = calibration::CalibrationOptions {
             closed_loop,
             ..Default::default()
         };
-        calibration::compare(builder, &controllers::builtin(), &run, &options)
+        let comparison = calibration::compare(builder, &registry, &run, &options)?;
+        Ok::<_, CalibrationError>((comparison, notes))
     });
-    let comparison = comparison.map_err(from_calibration)?;
+    let (comparison, notes) = comparison.map_err(from_calibration)?;
     let dict = PyDict::new(py);
+    dict.set_item("notes", notes)?;
     dict.set_item("report", from_json(py, &comparison.to_json().to_string())?)?;
     let samples = comparison.overlays.first().map_or(0, |o| o.measured.len());
     let time = grid(py, comparison.start_time, comparison.period, samples);
@@ -138,12 +143,49 @@ pub fn paths(argument: &str, value: Option<&Bound<'_, PyAny>>) -> PyResult<Vec<P
         .collect()
 }
 
-/// `map`: a dict of old → new column names, as `old=new` for `parse_renames`.
-pub fn renamed(map: Option<&Bound<'_, PyAny>>) -> PyResult<Vec<String>> {
-    let rename = |(old, new): (String, Bound<'_, PyAny>)| {
+/// The reading asked by `rename` (a dict of old → new column names, before `table`'s renames),
+/// `delimiter` (`","`, `";"` or `"tab"`) and `strict`.
+pub fn read_options(
+    rename: Option<&Bound<'_, PyAny>>,
+    table: &BTreeMap<String, String>,
+    delimiter: Option<&str>,
+    strict: bool,
+) -> PyResult<ReadOptions> {
+    let entry = |(old, new): (String, Bound<'_, PyAny>)| {
         let new: String = (new.extract())
-            .map_err(|_| refuse("map", format!("{old}: the new name must be a str")))?;
+            .map_err(|_| refuse("rename", format!("{old}: the new name must be a str")))?;
         Ok(format!("{old}={new}"))
     };
-    entries("map", map)?.into_iter().map(rename).collect()
+    let mut renames: Vec<String> = (entries("rename", rename)?.into_iter())
+        .map(entry)
+        .collect::<PyResult<_>>()?;
+    renames.extend(table.iter().map(|(old, new)| format!("{old}={new}")));
+    let delimiter = delimiter.map(str::parse).transpose();
+    Ok(ReadOptions {
+        renames: parse_renames(&renames).map_err(from_data)?,
+        delimiter: delimiter.map_err(|reason: String| refuse("delimiter", reason))?,
+        strict,
+    })
+}
+
+/// The columns the scenario of `builder` reads and writes.
+pub fn plant_columns(
+    builder: &ScenarioBuilder,
+    registry: &framework::Registry,
+) -> Result<PlantColumns, CalibrationError> {
+    let simulator = Simulator::new(builder.clone().build(registry)?)?;
+    Ok(PlantColumns::of_simulator(&simulator))
+}
+
+/// The run at `path` read as `reading` asks, the columns `plant` does not know left out (refused
+/// when strict), and the note saying which, if any.
+pub fn read_run(
+    path: &Path,
+    reading: &ReadOptions,
+    plant: &PlantColumns,
+) -> Result<(RunData, Vec<String>), CalibrationError> {
+    let mut run = RunData::read_with(path, reading)?;
+    let left_out = run.leave_out_unknown(plant)?;
+    let notes = left_out_note(&run.source, &left_out).into_iter().collect();
+    Ok((run, notes))
 }

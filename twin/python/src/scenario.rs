@@ -224,20 +224,26 @@ impl Scenario {
 
     /// This scenario replaying the measured run in `data` (a `.csv`, `.parquet` or twin `.rrd`
     /// file) from the run's start state, as `twin compare` does: open loop on its logged
-    /// commands, or with `closed_loop` the scenario's controller on its logged reference. `map`
-    /// renames the data's columns first (`{old: new}`, as `--map old=new`). Returns a dict:
-    /// `report` (as `twin compare` writes comparison.json: per signal `fit_percent`,
-    /// `rms_error`, `max_error`, `whiteness`), `time` (the control-period grid, s) and per
-    /// compared signal `measured` and `simulated` (NumPy arrays, SI) and `units`.
-    #[pyo3(signature = (data, *, closed_loop=false, map=None))]
+    /// commands, or with `closed_loop` the scenario's controller on its logged reference.
+    /// `rename` renames the data's columns first (`{old: new}`, as `--rename old=new`),
+    /// `delimiter` gives a CSV file's separator (`","`, `";"` or `"tab"`; default: the
+    /// header's), and `strict` refuses the columns the scenario does not know instead of
+    /// leaving them out. Returns a dict: `report` (as `twin compare` writes comparison.json:
+    /// per signal `fit_percent`, `rms_error`, `max_error`, `whiteness`), `time` (the
+    /// control-period grid, s), per compared signal `measured` and `simulated` (NumPy arrays,
+    /// SI) and `units`, and `notes` (the columns left out, one line per file).
+    #[pyo3(signature = (data, *, closed_loop=false, rename=None, delimiter=None, strict=false))]
     fn compare<'py>(
         &self,
         py: Python<'py>,
         data: PathBuf,
         closed_loop: bool,
-        map: Option<&Bound<'py, PyAny>>,
+        rename: Option<&Bound<'py, PyAny>>,
+        delimiter: Option<&str>,
+        strict: bool,
     ) -> PyResult<Bound<'py, PyDict>> {
-        measured::compare(py, &self.builder, &data, closed_loop, map)
+        let reading = measured::read_options(rename, &Default::default(), delimiter, strict)?;
+        measured::compare(py, &self.builder, &data, closed_loop, &reading)
     }
 
     fn __repr__(&self) -> String {

@@ -31,7 +31,8 @@ def test_a_run_written_to_csv_is_replayed_at_a_100_percent_fit(tmp_path):
     r = s.run()
     r.to_csv(tmp_path / "run.csv")
     c = s.compare(tmp_path / "run.csv")
-    assert set(c) == {"report", "time", "measured", "simulated", "units"}
+    assert set(c) == {"report", "time", "measured", "simulated", "units", "notes"}
+    assert c["notes"] == []
     report = c["report"]
     assert report["data"] == str(tmp_path / "run.csv") and not report["closed_loop"]
     assert report["samples"] == len(c["time"]) == 2001 and report["control_period_s"] == 1e-3
@@ -149,14 +150,45 @@ def test_a_missing_or_unreadable_data_file_is_named(tmp_path):
     assert not (tmp_path / "no-such-folder").exists()
 
 
-def test_a_column_the_scenario_lacks_is_named(tmp_path):
+def test_a_column_the_scenario_lacks_is_left_out_with_a_note_or_refused_when_strict(tmp_path):
     s = whitworth(0.5)
     s.run().to_csv(tmp_path / "run.csv")
+    c = s.compare(tmp_path / "run.csv", rename={"crank.velocity": "speed"})
+    assert c["notes"] == [
+        f"{tmp_path / 'run.csv'}: left out 1 column the scenario does not know: speed [rad/s] "
+        "(--strict refuses it)"
+    ]
+    assert "crank.velocity" not in c["measured"]
     with pytest.raises(twin.DataError, match='column "speed \\[rad/s\\]"') as error:
-        s.compare(tmp_path / "run.csv", map={"crank.velocity": "speed"})
+        s.compare(tmp_path / "run.csv", rename={"crank.velocity": "speed"}, strict=True)
     one_line(error)
-    with pytest.raises(twin.CalibrationError, match="map: a list is not a dict"):
-        s.compare(tmp_path / "run.csv", map=["crank.velocity"])
+    with pytest.raises(twin.CalibrationError, match="rename: a list is not a dict"):
+        s.compare(tmp_path / "run.csv", rename=["crank.velocity"])
+    with pytest.raises(twin.CalibrationError, match="delimiter: `[|]` is not a separator"):
+        s.compare(tmp_path / "run.csv", delimiter="|")
+
+
+def test_a_loggers_file_is_read_as_it_comes(tmp_path):
+    """Semicolons, decimal commas, comments, a units row and a column the scenario lacks."""
+    s = whitworth(0.5)
+    s.run().to_csv(tmp_path / "run.csv")
+    lines = (tmp_path / "run.csv").read_text().splitlines()
+    names = [cell.split(" [")[0] for cell in lines[0].split(",")]
+    units = [cell.split(" [")[1].rstrip("]") for cell in lines[0].split(",")]
+    rows = [row.replace(",", ";").replace(".", ",") + ";21,5" for row in lines[1:]]
+    text = ["# logged on the shop floor", ";".join(names) + ";temperature",
+            ";".join(units) + ";°C", *rows]
+    (tmp_path / "logger.csv").write_text("\n".join(text) + "\n")
+    logged = s.compare(tmp_path / "logger.csv")
+    written = s.compare(tmp_path / "run.csv")
+    assert logged["notes"] == [
+        f"{tmp_path / 'logger.csv'}: left out 1 column the scenario does not know: "
+        "temperature [°C] (--strict refuses it)"
+    ]
+    for name, values in written["measured"].items():
+        np.testing.assert_array_equal(logged["measured"][name], values)
+    with pytest.raises(twin.DataError, match="temperature"):
+        s.compare(tmp_path / "logger.csv", delimiter=";", strict=True)
 
 
 def test_an_unknown_key_or_a_bad_option_is_named(tmp_path):

@@ -1,11 +1,13 @@
-//! A run's table bound to a plant: every column named as the plant's command, measured or true
-//! signal, in a unit that fits it (converted to SI), and resampled onto the control period's
-//! grid: rows already on it are taken exactly; otherwise measured and true signals are
+//! A run's table bound to a plant: every column the plant knows as its command, measured or
+//! true signal, in a unit that fits it (converted to SI), and resampled onto the control
+//! period's grid: rows already on it are taken exactly; otherwise measured and true signals are
 //! interpolated linearly and commands held (zero-order hold), as the controller held them,
 //! except across a gap of rows (dropped, or a logger slower than the control), where they follow
-//! a cubic through the rows around the gap.
+//! a cubic through the rows around the gap. The columns the plant does not know are left out
+//! and named, or refused when reading is strict.
 
-use super::units::{factor, to_si};
+use super::reading::unread_error;
+use super::units::{factor, missing, to_si};
 use super::{ColumnRole, DataError, DataRate, PlantColumns, RunData, Trace};
 
 /// Most grid points a resampling makes (about 400 MB per column): a period far below the data's
@@ -28,10 +30,11 @@ struct Place {
 }
 
 impl RunData {
-    /// Checks every column's name (a known command `effort.<actuator>`, measured signal
-    /// `<signal>` or true signal `true.<signal>`) and unit (converted to the plant's SI unit
-    /// where known), and resamples the rows onto `t_k = t_0 + k·period` from the first time to
-    /// the last. Refuses fewer than two rows, a non-positive period, and fewer than
+    /// Binds every column the plant knows (a command `effort.<actuator>`, measured signal
+    /// `<signal>` or true signal `true.<signal>`): checks its unit and numbers and converts it
+    /// to the plant's SI unit; leaves out the others, named in the trace's `left_out` (refused
+    /// when [`RunData::strict`]). Resamples the rows onto `t_k = t_0 + k·period` from the first
+    /// time to the last. Refuses fewer than two rows, a non-positive period, and fewer than
     /// `min_samples` grid points.
     pub fn bind(
         &self,
@@ -48,6 +51,7 @@ impl RunData {
                 "cannot resample onto a control period of {period} s; it must be positive"
             )));
         }
+        let left_out = self.unknown_columns(plant)?;
         let rows = self.time.len();
         if rows < 2 || self.columns.iter().any(|c| c.values.len() != rows) {
             return Err(format(format!(
@@ -76,6 +80,7 @@ impl RunData {
             rate: self.rate(resampled),
             rows: None,
             logged: vec![None; plant.signals.len()],
+            left_out,
         };
         if resampled {
             let first = self.time[0];
@@ -101,28 +106,69 @@ impl RunData {
         Ok(trace)
     }
 
-    /// Every column's role, index and SI values; an unknown name or a unit that does not fit
-    /// is refused.
+    /// The headers of the columns `plant` does not know, in the file's order but the unread
+    /// ones last. Refuses a column it knows whose cells are not all finite numbers, and under
+    /// [`RunData::strict`] the first column it does not know.
+    pub fn unknown_columns(&self, plant: &PlantColumns) -> Result<Vec<String>, DataError> {
+        let mut left_out = Vec::new();
+        let readable = (self.columns.iter()).map(|c| (&c.name, &c.unit, None));
+        let unread = (self.unread.iter()).map(|c| (&c.name, &c.unit, Some(c)));
+        for (name, unit, unread) in readable.chain(unread) {
+            let header = super::header(name, unit);
+            match (plant.role_of(name), unread) {
+                (Some(_), None) => {}
+                (Some(_), Some(c)) => {
+                    let cell = (c.row, c.reason.clone());
+                    return Err(unread_error(&self.source, name, unit, cell));
+                }
+                (None, _) if self.strict => {
+                    return Err(DataError::Column {
+                        file: self.source.clone(),
+                        column: header,
+                        reason: unknown(name, plant),
+                    })
+                }
+                (None, _) => left_out.push(header),
+            }
+        }
+        Ok(left_out)
+    }
+
+    /// Leaves out the columns `plant` does not know (refused under [`RunData::strict`]) and
+    /// returns their headers, for [`left_out_note`](super::left_out_note); refuses a column it
+    /// knows whose cells are not all finite numbers.
+    pub fn leave_out_unknown(&mut self, plant: &PlantColumns) -> Result<Vec<String>, DataError> {
+        let left_out = self.unknown_columns(plant)?;
+        self.columns.retain(|c| plant.role_of(&c.name).is_some());
+        self.unread.clear();
+        Ok(left_out)
+    }
+
+    /// Every known column's role, index and SI values; a column without a unit or with a unit
+    /// that does not fit is refused.
     fn bind_columns(
         &self,
         plant: &PlantColumns,
     ) -> Result<Vec<(ColumnRole, usize, Vec<f64>)>, DataError> {
         let mut bound = Vec::with_capacity(self.columns.len());
         for column in &self.columns {
+            let Some((role, index)) = plant.role_of(&column.name) else {
+                continue;
+            };
             let error = |reason: String| DataError::Column {
                 file: self.source.clone(),
                 column: RunData::header(column),
                 reason,
             };
-            let (role, index) = plant
-                .role_of(&column.name)
-                .ok_or_else(|| error(unknown(&column.name, plant)))?;
             let si = match role {
                 ColumnRole::Command => &plant.actuators[index].1,
                 _ => &plant.signals[index].1,
             };
-            let factor = factor(&column.unit, &column.name, si).map_err(error)?;
-            bound.push((role, index, to_si(&column.values, factor)));
+            let factor = match column.unit.as_str() {
+                "" => Err(missing(&column.name, si)),
+                unit => factor(unit, &column.name, si),
+            };
+            bound.push((role, index, to_si(&column.values, factor.map_err(error)?)));
         }
         Ok(bound)
     }
@@ -237,8 +283,8 @@ fn unknown(name: &str, plant: &PlantColumns) -> String {
         n => format!(" and {n} more"),
     };
     format!(
-        "unknown signal {name} (known: {}{more}; each signal also as true.<signal>; rename \
-         with --map {name}=<known>)",
+        "unknown signal {name} (known: {}{more}; each signal also as true.<signal>); rename it \
+         with --rename {name}=<known>, or read without --strict to leave it out",
         known[..listed].join(", ")
     )
 }

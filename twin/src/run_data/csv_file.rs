@@ -1,13 +1,31 @@
-//! The CSV form of a run's table: comma separated, a header row of `name [unit]` cells, one row
-//! per time; a cell may be quoted (`"…"`, a quote doubled inside), values are written with
-//! Rust's shortest round-trip form of an `f64`.
+//! The CSV form of a run's table, read as a machine's logger writes it: cells separated by `,`,
+//! `;` or tab (the one the header holds most of, unless given; with `;` and tab a number may
+//! have a decimal comma, `0,25`), quoted or not (`"…"`, a quote doubled inside); `#` comment
+//! lines anywhere; a header of `name [unit]` or `name (unit)` cells, or of bare names with a
+//! units row under it (`time,torque` then `s,N·m`); then one row per time. Written as the twin
+//! writes it: comma separated, `name [unit]` headers, values in Rust's shortest round-trip form
+//! of an `f64`.
 
-use super::{DataError, RawTable, RunData};
+use super::{DataError, Delimiter, RawTable, RunData};
 
-/// Parses the CSV `bytes` of `file` into its columns: a header of bracketed units, then rows
-/// of as many numeric cells (blank lines are skipped; a byte-order mark and CRLF line ends are
-/// accepted).
-pub(super) fn parse(file: &str, bytes: &[u8]) -> Result<RawTable, DataError> {
+/// How the file's lines are cut into cells: the separator, and whether it was given
+/// (`--delimiter`) or read from the header.
+#[derive(Debug, Clone, Copy)]
+struct Cutting<'a> {
+    file: &'a str,
+    delimiter: Delimiter,
+    given: bool,
+}
+
+/// Parses the CSV `bytes` of `file` into its columns: comment and blank lines skipped, a
+/// header, an optional units row, then rows of as many cells (a byte-order mark and CRLF line
+/// ends are accepted). A cell that is not a number leaves its column unread, not the file
+/// refused: only a column the plant knows needs numbers.
+pub(super) fn parse(
+    file: &str,
+    bytes: &[u8],
+    delimiter: Option<Delimiter>,
+) -> Result<RawTable, DataError> {
     let format = |reason: String| DataError::Format {
         file: file.to_owned(),
         reason,
@@ -15,67 +33,194 @@ pub(super) fn parse(file: &str, bytes: &[u8]) -> Result<RawTable, DataError> {
     let text = std::str::from_utf8(bytes)
         .map_err(|_| format("not a CSV file: it is not UTF-8 text".into()))?;
     let text = text.strip_prefix('\u{feff}').unwrap_or(text);
-    let mut lines = text.lines().enumerate();
-    let Some((_, header)) = lines.by_ref().find(|(_, line)| !line.trim().is_empty()) else {
+    let mut lines = (text.lines().enumerate())
+        .map(|(index, line)| (index + 1, line))
+        .filter(|(_, line)| !(line.trim().is_empty() || line.trim_start().starts_with('#')))
+        .peekable();
+    let Some((_, header)) = lines.next() else {
         return Err(format(
-            "not a CSV file: it is empty (its first line is the header, e.g. \
-             `time [s],ram_position [m]`)"
+            "not a CSV file: it is empty (its first line that is not a `#` comment is the \
+             header, e.g. `time [s],ram_position [m]`)"
                 .into(),
         ));
     };
-    let headers = split_cells(header)
+    let cutting = Cutting {
+        file,
+        delimiter: delimiter.unwrap_or_else(|| detect(header)),
+        given: delimiter.is_some(),
+    };
+    let headers = cutting
+        .cells(header)
         .ok_or_else(|| format("not a CSV file: its header has an unclosed quote".into()))?;
-    let columns = headers
-        .iter()
-        .enumerate()
+    cutting.check_header(&headers)?;
+    let mut columns = (headers.iter().enumerate())
         .map(|(i, text)| split_header(file, i, text))
         .collect::<Result<Vec<_>, _>>()?;
-    let mut values = vec![Vec::new(); columns.len()];
-    let mut rows = Vec::new();
-    for (index, line) in lines {
-        if line.trim().is_empty() {
-            continue;
+    if columns.iter().any(|(_, unit)| unit.is_empty()) {
+        if let Some(&(row, line)) = lines.peek() {
+            if cutting.units_row(&mut columns, row, line)? {
+                lines.next();
+            }
         }
-        let row = index + 1;
+    }
+    let mut table = RawTable::new(columns);
+    for (row, line) in lines {
+        cutting.read_row(&mut table, row, line)?;
+    }
+    Ok(table)
+}
+
+/// The separator the header holds most of, outside quotes: tab before `;` before `,` on a tie,
+/// `,` when it holds none.
+fn detect(header: &str) -> Delimiter {
+    let all = [Delimiter::Comma, Delimiter::Semicolon, Delimiter::Tab];
+    let mut counts = [0_usize; 3];
+    let mut quoted = false;
+    for c in header.chars() {
+        if c == '"' {
+            quoted = !quoted;
+        } else if let Some(k) = all.iter().position(|d| d.separator() == c && !quoted) {
+            counts[k] += 1;
+        }
+    }
+    match (0..all.len()).max_by_key(|&k| (counts[k], k)) {
+        Some(k) if counts[k] > 0 => all[k],
+        _ => Delimiter::Comma,
+    }
+}
+
+impl Cutting<'_> {
+    /// The cells of a line, unquoted; `None` for an unclosed quote.
+    fn cells(&self, line: &str) -> Option<Vec<String>> {
+        split_cells(line, self.delimiter.separator())
+    }
+
+    /// Refuses a header read as one column that holds another separator: the separator given
+    /// is not the file's.
+    fn check_header(&self, headers: &[String]) -> Result<(), DataError> {
+        let [only] = headers else {
+            return Ok(());
+        };
+        let others = [Delimiter::Comma, Delimiter::Semicolon, Delimiter::Tab];
+        match others.into_iter().find(|d| only.contains(d.separator())) {
+            Some(other) if other != self.delimiter => Err(DataError::Format {
+                file: self.file.to_owned(),
+                reason: format!(
+                    "its header is one column with the separator `{}` but holds `{}`; give \
+                     --delimiter '{}'",
+                    self.delimiter.name(),
+                    other.name(),
+                    other.name()
+                ),
+            }),
+            _ => Ok(()),
+        }
+    }
+
+    /// Takes the line under the header as its units row when it looks like one (no cell a
+    /// number but `1`, some cell not empty), giving each column without a unit in the header
+    /// its unit; returns whether it did.
+    fn units_row(
+        &self,
+        columns: &mut [(String, String)],
+        row: usize,
+        line: &str,
+    ) -> Result<bool, DataError> {
+        let Some(cells) = self.cells(line) else {
+            return Ok(false);
+        };
+        let number = |cell: &String| self.number(cell).is_ok() && cell.trim() != "1";
+        let word = |cell: &String| !cell.trim().is_empty() && self.number(cell).is_err();
+        if cells.iter().any(number) || !cells.iter().any(word) {
+            return Ok(false);
+        }
+        if cells.len() != columns.len() {
+            return Err(DataError::Row {
+                file: self.file.to_owned(),
+                row,
+                reason: format!(
+                    "the units row has {}",
+                    self.width(cells.len(), columns.len())
+                ),
+            });
+        }
+        for ((name, unit), cell) in columns.iter_mut().zip(&cells) {
+            let given = unbracketed(cell.trim());
+            if unit.is_empty() {
+                *unit = given.to_owned();
+            } else if !given.is_empty() && given != unit {
+                return Err(DataError::Column {
+                    file: self.file.to_owned(),
+                    column: super::header(name, unit),
+                    reason: format!(
+                        "its unit is {unit} in the header but {given} in the units row \
+                         (row {row}); give one"
+                    ),
+                });
+            }
+        }
+        Ok(true)
+    }
+
+    /// Reads one row's cells into `table`: a cell that is not a number marks its column unread.
+    fn read_row(&self, table: &mut RawTable, row: usize, line: &str) -> Result<(), DataError> {
         let row_error = |reason: String| DataError::Row {
-            file: file.to_owned(),
+            file: self.file.to_owned(),
             row,
             reason,
         };
-        let cells = split_cells(line).ok_or_else(|| row_error("an unclosed quote".into()))?;
-        if cells.len() != headers.len() {
-            return Err(row_error(format!(
-                "{} cells where the header has {}",
-                cells.len(),
-                headers.len()
-            )));
+        let cells = self
+            .cells(line)
+            .ok_or_else(|| row_error("an unclosed quote".into()))?;
+        if cells.len() != table.columns.len() {
+            return Err(row_error(self.width(cells.len(), table.columns.len())));
         }
-        for ((cell, column), header) in cells.iter().zip(&mut values).zip(&headers) {
-            let value = number(cell).map_err(|reason| DataError::Cell {
-                file: file.to_owned(),
-                row,
-                column: header.trim().to_owned(),
-                reason,
-            })?;
-            column.push(value);
+        for (k, cell) in cells.iter().enumerate() {
+            let value = self.number(cell).unwrap_or_else(|reason| {
+                table.unread[k].get_or_insert((Some(row), reason));
+                f64::NAN
+            });
+            table.values[k].push(value);
         }
-        rows.push(row);
+        table.rows.push(row);
+        Ok(())
     }
-    Ok(RawTable {
-        columns,
-        values,
-        rows,
-    })
+
+    /// "3 cells where the header has 2", with the separator to check.
+    fn width(&self, cells: usize, header: usize) -> String {
+        let separator = self.delimiter.name();
+        let how = match self.given {
+            true => format!("the separator `{separator}` given with --delimiter"),
+            false => format!("the separator `{separator}`, as the header's"),
+        };
+        format!(
+            "{cells} cells where the header has {header}, cut at {how}; if the file has \
+             another separator, give it with --delimiter (`,`, `;` or `tab`)"
+        )
+    }
+
+    /// A cell's number (with a decimal comma when the separator is `;` or tab); an empty cell
+    /// and one that is not a number are refused.
+    fn number(&self, cell: &str) -> Result<f64, String> {
+        let cell = cell.trim();
+        if cell.is_empty() {
+            return Err("empty cell".into());
+        }
+        let decimal_comma = self.delimiter != Delimiter::Comma && cell.contains(',');
+        let parsed = match decimal_comma {
+            true if cell.contains('.') => None,
+            true => cell.replace(',', ".").parse::<f64>().ok(),
+            false => cell.parse::<f64>().ok(),
+        };
+        parsed.ok_or_else(|| format!("`{}` is not a number", shorten(cell)))
+    }
 }
 
-/// A cell's number; an empty cell and one that is not a number are refused.
-fn number(cell: &str) -> Result<f64, String> {
-    let cell = cell.trim();
-    if cell.is_empty() {
-        return Err("empty cell".into());
-    }
-    cell.parse::<f64>()
-        .map_err(|_| format!("`{}` is not a number", shorten(cell)))
+/// A unit as a units row may write it: `s`, `[s]` or `(s)`.
+fn unbracketed(cell: &str) -> &str {
+    let inner = (cell.strip_prefix('[').and_then(|c| c.strip_suffix(']')))
+        .or_else(|| cell.strip_prefix('(').and_then(|c| c.strip_suffix(')')));
+    inner.unwrap_or(cell).trim()
 }
 
 /// A cell quoted in a message: at most 40 characters.
@@ -88,40 +233,50 @@ fn shorten(cell: &str) -> String {
     }
 }
 
-/// A header cell's name and unit: `name [unit]`, both non-empty.
+/// A header cell's name and unit: `name [unit]`, `name (unit)`, or a bare `name` (its unit
+/// empty, given by a units row or refused later if the plant knows the column).
 pub(super) fn split_header(
     file: &str,
     index: usize,
     text: &str,
 ) -> Result<(String, String), DataError> {
     let text = text.trim();
-    let error = |reason: String| DataError::Column {
+    let nameless = || DataError::Format {
         file: file.to_owned(),
-        column: text.to_owned(),
-        reason,
+        reason: format!("column {} has no name in the header", index + 1),
     };
-    if text.is_empty() {
-        return Err(DataError::Format {
+    let suffix = |open: char, close: char| {
+        let (name, unit) = text.strip_suffix(close)?.rsplit_once(open)?;
+        Some((name.trim(), unit.trim()))
+    };
+    let (name, unit) = (suffix('[', ']'))
+        .or_else(|| suffix('(', ')'))
+        .unwrap_or((text, ""));
+    if name.is_empty() {
+        return Err(nameless());
+    }
+    if name.contains(['[', ']']) {
+        let (base, rest) = name.split_once('[').unwrap_or((name, ""));
+        let unit = rest.replace(']', "");
+        let unit = if unit.trim().is_empty() {
+            "unit"
+        } else {
+            unit.trim()
+        };
+        return Err(DataError::Column {
             file: file.to_owned(),
-            reason: format!("column {} has no name in the header", index + 1),
+            column: text.to_owned(),
+            reason: format!(
+                "its brackets do not close around a unit at its end; write it as \"{} [{unit}]\"",
+                shorten(base.trim())
+            ),
         });
     }
-    let parsed = text
-        .strip_suffix(']')
-        .and_then(|rest| rest.rsplit_once('['))
-        .map(|(name, unit)| (name.trim(), unit.trim()))
-        .filter(|(name, unit)| !name.is_empty() && !unit.is_empty());
-    match parsed {
-        Some((name, unit)) => Ok((name.to_owned(), unit.to_owned())),
-        None => Err(error(format!(
-            "no unit: give it in brackets after the name, e.g. \"{} [m]\"",
-            shorten(text.split('[').next().unwrap_or(text).trim())
-        ))),
-    }
+    Ok((name.to_owned(), unit.to_owned()))
 }
 
-/// The cells of a line, unquoted; `None` for an unclosed quote.
-fn split_cells(line: &str) -> Option<Vec<String>> {
+/// The cells of a line cut at `separator`, unquoted; `None` for an unclosed quote.
+fn split_cells(line: &str, separator: char) -> Option<Vec<String>> {
     let mut cells = Vec::new();
     let mut cell = String::new();
     let mut chars = line.chars().peekable();
@@ -137,7 +292,7 @@ fn split_cells(line: &str) -> Option<Vec<String>> {
                 cell.clear();
                 quoted = true;
             }
-            (',', false) => cells.push(std::mem::take(&mut cell)),
+            (c, false) if c == separator => cells.push(std::mem::take(&mut cell)),
             _ => cell.push(c),
         }
     }
@@ -145,9 +300,9 @@ fn split_cells(line: &str) -> Option<Vec<String>> {
     (!quoted).then_some(cells)
 }
 
-/// A header cell, quoted when it holds a comma or a quote.
+/// A header cell, quoted when it holds a separator or a quote.
 fn cell_text(text: &str) -> String {
-    if text.contains([',', '"']) || text.trim() != text {
+    if text.contains([',', ';', '\t', '"']) || text.trim() != text {
         format!("\"{}\"", text.replace('"', "\"\""))
     } else {
         text.to_owned()

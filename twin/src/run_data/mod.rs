@@ -3,11 +3,18 @@
 //! `true.<signal> [unit]`, one row per control update, as CSV or Parquet (one Float64 column per
 //! CSV column, the same names); a twin `.rrd` recording is read as the same table.
 //!
-//! Reading ([`RunData::read`]) checks the file's shape (a header with a bracketed unit on every
-//! column, a `time` column strictly increasing, finite numbers in every cell); binding to a plant
-//! ([`RunData::bind`]) checks every column's name and unit against the plant, converts to SI and
-//! resamples onto the control period's grid. Each refusal is one line naming the file and the
-//! row (counted as a spreadsheet shows the table: the header is row 1) or the column.
+//! A machine's logger writes the same table in its own way, and reading takes it as it comes:
+//! `#` comment lines, a units row under the header or units in brackets or parentheses
+//! (`name [unit]`, `name (unit)`), `,`, `;` or tab separators (a decimal comma with the last two)
+//! and quoted cells ([`ReadOptions`]).
+//!
+//! Reading ([`RunData::read_with`]) checks the file's shape (a `time` column in a time unit,
+//! strictly increasing; as many cells in every row as in the header); binding to a plant
+//! ([`RunData::bind`]) checks every column the plant knows (its unit, finite numbers in every
+//! cell), converts to SI and resamples onto the control period's grid. The columns the plant does
+//! not know are left out, with a note ([`left_out_note`]), or refused when reading is strict.
+//! Each refusal is one line naming the file and the row (counted as a spreadsheet shows the
+//! file: its first line is row 1) or the column, and what to change.
 //! Writing ([`RunData::write_csv`], [`RunData::write_parquet`], [`RunTable`]) is atomic: a
 //! temporary file beside the target, renamed onto it once whole.
 
@@ -53,8 +60,8 @@ pub enum DataError {
         /// What is wrong with it.
         reason: String,
     },
-    /// A column is refused: no bracketed unit, a duplicate, an unknown signal, a unit that does
-    /// not fit its signal, a type that is not numbers.
+    /// A column is refused: no unit, a duplicate, an unknown signal (when strict), a unit that
+    /// does not fit its signal, a type that is not numbers.
     #[error("{file}: column \"{column}\": {reason}")]
     Column {
         /// The file, as given.
@@ -87,8 +94,8 @@ pub enum DataError {
         /// What is wrong with it.
         reason: String,
     },
-    /// A `--map old=new` argument is malformed.
-    #[error("--map `{given}`: {reason}")]
+    /// A `--rename old=new` argument is malformed.
+    #[error("--rename `{given}`: {reason}")]
     Rename {
         /// The argument, as given.
         given: String,
@@ -116,8 +123,55 @@ pub struct RunData {
     pub digest: String,
     /// Time of each row, s, strictly increasing.
     pub time: Vec<f64>,
-    /// Every column but `time`, in the file's order; each has one value per row.
+    /// Every column but `time` whose cells are all finite numbers, in the file's order; each has
+    /// one value per row.
     pub columns: Vec<DataColumn>,
+    /// The columns with a cell that is not a finite number: refused by [`RunData::bind`] if the
+    /// plant knows them, else left out like any column it does not know.
+    pub unread: Vec<UnreadColumn>,
+    /// Whether [`RunData::bind`] refuses the columns the plant does not know (`--strict`)
+    /// instead of leaving them out.
+    pub strict: bool,
+}
+
+/// How a data file is read: its columns renamed, the CSV separator, and whether the columns the
+/// plant does not know are refused.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct ReadOptions {
+    /// Column renames, old → new (names without their units), applied before anything else
+    /// looks at the columns (`--rename old=new`, [`parse_renames`]).
+    pub renames: Vec<(String, String)>,
+    /// The CSV separator; `None`: the one the header holds most of (`,` when it holds none).
+    pub delimiter: Option<Delimiter>,
+    /// Refuse the columns the plant does not know instead of leaving them out with a note.
+    pub strict: bool,
+}
+
+/// The separator of a CSV file's cells (`--delimiter`). With `;` or tab, a number may have a
+/// decimal comma (`0,25`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Delimiter {
+    /// `,`
+    Comma,
+    /// `;`
+    Semicolon,
+    /// A tab.
+    Tab,
+}
+
+/// A column with a cell that is not a finite number (or, in Parquet, values that are not
+/// numbers), kept apart from the numbers.
+#[derive(Debug, Clone, PartialEq)]
+pub struct UnreadColumn {
+    /// Its name (after the renames).
+    pub name: String,
+    /// Its unit as written, empty when none is given.
+    pub unit: String,
+    /// The first row of a cell that is not a number (counted as [`DataError::Row`] counts);
+    /// `None` for a whole column of another type.
+    pub row: Option<usize>,
+    /// What is wrong with that cell or column.
+    pub reason: String,
 }
 
 /// One column of a [`RunData`].
@@ -125,7 +179,8 @@ pub struct RunData {
 pub struct DataColumn {
     /// Its name: `effort.<actuator>`, `<signal>` or `true.<signal>` (or anything, until bound).
     pub name: String,
-    /// Its unit, as written in its header's brackets.
+    /// Its unit, as written in its header's brackets or parentheses or in the units row; empty
+    /// when none is given (refused by [`RunData::bind`] if the plant knows the column).
     pub unit: String,
     /// One value per row, in `unit`, finite.
     pub values: Vec<f64>,
@@ -165,6 +220,9 @@ pub struct Trace {
     pub truth: Vec<Option<Vec<f64>>>,
     /// How the data were sampled.
     pub rate: DataRate,
+    /// The headers of the data's columns the plant does not know, left out (see
+    /// [`left_out_note`]).
+    pub left_out: Vec<String>,
     /// Where the data's own rows fall on the grid, in samples from the first (row r is at
     /// `start_time + rows[r]·period`); `None` when the rows are the grid's samples. A fit
     /// compares the twin with the data at these instants only, not at interpolated ones.
@@ -208,29 +266,42 @@ pub struct DataRate {
 }
 
 impl RunData {
-    /// Reads a run's table from a CSV, Parquet or twin `.rrd` file, by its extension; `renames`
-    /// (`--map old=new`) rename columns (names without their units) before anything else looks
-    /// at them. Refuses a file of another kind, one that does not parse as its kind, a column
-    /// without a bracketed unit, a duplicate column, a missing `time`, a time not strictly
-    /// increasing, a row of another width than the header and an empty, non-numeric or
-    /// non-finite cell.
+    /// Reads a run's table from a CSV, Parquet or twin `.rrd` file, by its extension, as
+    /// [`RunData::read_with`] does with these `renames` and nothing else asked.
+    pub fn read(path: &Path, renames: &[(String, String)]) -> Result<RunData, DataError> {
+        let options = ReadOptions {
+            renames: renames.to_vec(),
+            ..ReadOptions::default()
+        };
+        Self::read_with(path, &options)
+    }
+
+    /// Reads a run's table from a CSV, Parquet or twin `.rrd` file, by its extension; the
+    /// `options`' renames apply before anything else looks at the columns. A CSV file may hold
+    /// `#` comment lines anywhere, give its units in the header (`name [unit]`, `name (unit)`)
+    /// or in a row under it, separate its cells by `,`, `;` or tab (from the header, unless
+    /// given) and quote them. Refuses a file of another kind, one that does not parse as its
+    /// kind, a duplicate column, a missing `time` or one without a time unit, a time not
+    /// strictly increasing or not a finite number, and a row of another width than the header.
+    /// A column with another cell that is not a number is kept apart ([`RunData::unread`]).
     ///
     /// A recording gives one row per recorded sample: the series `twin run` marks as the run's
     /// commands and signals, their `f64` values converted back from the plots' display units
     /// (equal to the run's own to within a rounding or two; wrapped angles unwrapped).
-    pub fn read(path: &Path, renames: &[(String, String)]) -> Result<RunData, DataError> {
+    pub fn read_with(path: &Path, options: &ReadOptions) -> Result<RunData, DataError> {
         let file = path.display().to_string();
         let kind = Kind::of(path, &file)?;
         let bytes = read_bounded(path, &file)?;
         let digest = sha256_hex(&bytes);
         let mut table = match kind {
-            Kind::Csv => csv_file::parse(&file, &bytes)?,
+            Kind::Csv => csv_file::parse(&file, &bytes, options.delimiter)?,
             Kind::Parquet => parquet_file::parse(&file, bytes::Bytes::from(bytes))?,
             Kind::Recording => recorded::parse(path, &file, &bytes)?,
         };
-        table.rename(renames);
+        table.rename(&options.renames);
         let mut data = table.into_run_data(&file)?;
         data.digest = digest;
+        data.strict = options.strict;
         Ok(data)
     }
 
@@ -254,9 +325,9 @@ impl RunData {
         self.columns.iter().find(|c| c.name == name)
     }
 
-    /// A column's header as written: `name [unit]`.
+    /// A column's header as written: `name [unit]`, or `name` without a unit.
     fn header(column: &DataColumn) -> String {
-        format!("{} [{}]", column.name, column.unit)
+        header(&column.name, &column.unit)
     }
 }
 
@@ -339,8 +410,8 @@ impl PlantColumns {
     }
 }
 
-/// Parses `--map old=new` arguments: each renames the column `old` (its name without the unit)
-/// to `new`.
+/// Parses `--rename old=new` arguments: each renames the column `old` (its name without the
+/// unit) to `new`.
 pub fn parse_renames(args: &[String]) -> Result<Vec<(String, String)>, DataError> {
     args.iter()
         .map(|given| {
@@ -350,19 +421,83 @@ pub fn parse_renames(args: &[String]) -> Result<Vec<(String, String)>, DataError
             };
             let (old, new) = given
                 .split_once('=')
-                .ok_or_else(|| error("give old=new, e.g. --map pos=ram_position"))?;
+                .ok_or_else(|| error("give old=new, e.g. --rename pos=ram_position"))?;
             let (old, new) = (old.trim(), new.trim());
             if old.is_empty() || new.is_empty() {
                 return Err(error("both names are needed: old=new"));
             }
-            if new.contains(['[', ']', ',', '"', '\n', '\r']) {
+            if new.contains(['[', ']', ',', ';', '\t', '"', '\n', '\r']) {
                 return Err(error(
-                    "the new name may not hold brackets, commas, quotes or line breaks",
+                    "the new name may not hold brackets, separators, quotes or line breaks",
                 ));
             }
             Ok((old.to_owned(), new.to_owned()))
         })
         .collect()
+}
+
+/// The one-line note of the columns of `source` a binding left out (a [`Trace`]'s
+/// `left_out`, or what [`RunData::leave_out_unknown`] returns); `None` when there are none.
+pub fn left_out_note(source: &str, left_out: &[String]) -> Option<String> {
+    const LISTED: usize = 12;
+    let listed = left_out.len().min(LISTED);
+    let more = match left_out.len() - listed {
+        0 => String::new(),
+        n => format!(" and {n} more"),
+    };
+    let (count, them) = match left_out.len() {
+        0 => return None,
+        1 => ("1 column".to_owned(), "it"),
+        n => (format!("{n} columns"), "them"),
+    };
+    Some(format!(
+        "{source}: left out {count} the scenario does not know: {}{more} (--strict refuses {them})",
+        left_out[..listed].join(", ")
+    ))
+}
+
+impl std::str::FromStr for Delimiter {
+    type Err = String;
+
+    /// `,`, `;` or `tab` (also `comma`, `semicolon` and a tab character).
+    fn from_str(text: &str) -> Result<Self, String> {
+        match text {
+            "," | "comma" => Ok(Delimiter::Comma),
+            ";" | "semicolon" => Ok(Delimiter::Semicolon),
+            "tab" | "\t" => Ok(Delimiter::Tab),
+            other => Err(format!(
+                "`{other}` is not a separator; give `,`, `;` or `tab`"
+            )),
+        }
+    }
+}
+
+impl Delimiter {
+    /// The character that separates cells.
+    pub fn separator(self) -> char {
+        match self {
+            Delimiter::Comma => ',',
+            Delimiter::Semicolon => ';',
+            Delimiter::Tab => '\t',
+        }
+    }
+
+    /// How a message and `--delimiter` name it: `,`, `;` or `tab`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Delimiter::Comma => ",",
+            Delimiter::Semicolon => ";",
+            Delimiter::Tab => "tab",
+        }
+    }
+}
+
+/// A column's header as written: `name [unit]`, or `name` without a unit.
+fn header(name: &str, unit: &str) -> String {
+    match unit {
+        "" => name.to_owned(),
+        unit => format!("{name} [{unit}]"),
+    }
 }
 
 /// SHA-256 of `bytes`, lower-case hex.

@@ -13,7 +13,8 @@ use parquet::arrow::ArrowWriter;
 use super::csv_file::{check_shape, split_header};
 use super::{DataError, RawTable, RunData};
 
-/// Parses the Parquet `bytes` of `file` into its columns.
+/// Parses the Parquet `bytes` of `file` into its columns; a column with a null or of values
+/// that are not numbers is kept unread.
 pub(super) fn parse(file: &str, bytes: bytes::Bytes) -> Result<RawTable, DataError> {
     let format = |reason: String| DataError::Format {
         file: file.to_owned(),
@@ -30,34 +31,25 @@ pub(super) fn parse(file: &str, bytes: bytes::Bytes) -> Result<RawTable, DataErr
         .map(|(i, name)| split_header(file, i, name))
         .collect::<Result<Vec<_>, _>>()?;
     let reader = builder.build().map_err(|e| format(e.to_string()))?;
-    let mut values = vec![Vec::new(); columns.len()];
+    let mut table = RawTable::new(columns);
     for batch in reader {
         let batch = batch.map_err(|e| format(e.to_string()))?;
-        let first_row = values.first().map_or(0, Vec::len);
-        for ((column, array), name) in values.iter_mut().zip(batch.columns()).zip(&fields) {
-            append(column, array.as_ref()).map_err(|(k, reason)| match k {
-                Some(k) => DataError::Cell {
-                    file: file.to_owned(),
-                    row: first_row + k + 2,
-                    column: name.clone(),
-                    reason,
-                },
-                None => DataError::Column {
-                    file: file.to_owned(),
-                    column: name.clone(),
-                    reason,
-                },
-            })?;
+        let first_row = table.rows.len();
+        for (k, array) in batch.columns().iter().enumerate().take(table.columns.len()) {
+            if table.unread[k].is_some() {
+                table.values[k].resize(first_row + array.len(), f64::NAN);
+                continue;
+            }
+            if let Err((at, reason)) = append(&mut table.values[k], array.as_ref()) {
+                table.unread[k] = Some((at.map(|at| first_row + at + 2), reason));
+                table.values[k].resize(first_row + array.len(), f64::NAN);
+            }
         }
+        table
+            .rows
+            .extend((first_row..first_row + batch.num_rows()).map(|k| k + 2));
     }
-    let rows = (0..values.first().map_or(0, Vec::len))
-        .map(|k| k + 2)
-        .collect();
-    Ok(RawTable {
-        columns,
-        values,
-        rows,
-    })
+    Ok(table)
 }
 
 /// Appends `array`'s values as `f64`; refuses a null (its index) and a type that is not

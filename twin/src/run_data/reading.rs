@@ -1,9 +1,10 @@
 //! Reading a data file, the part every kind shares: its kind by extension, its bytes (bounded
-//! in size), and the checks of its parsed columns (no duplicate, a `time` column, finite values,
-//! times strictly increasing).
+//! in size), and the checks of its parsed columns (no duplicate, a `time` column in a time unit,
+//! its values finite and strictly increasing; another column with a value that is not a finite
+//! number kept apart, unread).
 
 use super::units;
-use super::{DataColumn, DataError, RunData, MAX_DATA_BYTES};
+use super::{header, DataColumn, DataError, RunData, UnreadColumn, MAX_DATA_BYTES};
 use std::path::Path;
 
 /// The kinds of data file, by extension.
@@ -41,15 +42,31 @@ impl Kind {
 
 /// A file's columns as parsed, before the checks every kind shares.
 pub(super) struct RawTable {
-    /// Per column: its name and its unit, as written (after the renames).
+    /// Per column: its name and its unit as written, empty when none is given (after the
+    /// renames).
     pub(super) columns: Vec<(String, String)>,
-    /// Per column, its values (each column as long as the others).
+    /// Per column, its values (each column as long as the others; NaN where a cell is not a
+    /// number).
     pub(super) values: Vec<Vec<f64>>,
-    /// Per value, its row as a spreadsheet shows the file (the header is row 1).
+    /// Per column, its first cell that is not a number, if any: its row (`None`: the whole
+    /// column) and what is wrong with it.
+    pub(super) unread: Vec<Option<(Option<usize>, String)>>,
+    /// Per value, its row as a spreadsheet shows the file (its first line is row 1).
     pub(super) rows: Vec<usize>,
 }
 
 impl RawTable {
+    /// A table of these columns (name, unit), without rows yet.
+    pub(super) fn new(columns: Vec<(String, String)>) -> Self {
+        let width = columns.len();
+        Self {
+            columns,
+            values: vec![Vec::new(); width],
+            unread: vec![None; width],
+            rows: Vec::new(),
+        }
+    }
+
     pub(super) fn rename(&mut self, renames: &[(String, String)]) {
         for (name, _) in &mut self.columns {
             if let Some((_, new)) = renames.iter().find(|(old, _)| old == name) {
@@ -58,56 +75,98 @@ impl RawTable {
         }
     }
 
-    /// The table with its `time` column (in s or ms, converted to s) apart; refuses a
-    /// duplicate column, a missing `time`, a non-finite value and times not strictly increasing.
-    pub(super) fn into_run_data(self, file: &str) -> Result<RunData, DataError> {
-        let header = |(name, unit): &(String, String)| format!("{name} [{unit}]");
-        for (i, column) in self.columns.iter().enumerate() {
-            if self.columns[..i].iter().any(|(name, _)| *name == column.0) {
+    /// The table with its `time` column (in s or ms, converted to s) apart and the columns
+    /// with a cell that is not a finite number kept unread; refuses a duplicate column, a
+    /// missing `time`, one without a time unit or with a cell that is not a finite number, and
+    /// times not strictly increasing.
+    pub(super) fn into_run_data(mut self, file: &str) -> Result<RunData, DataError> {
+        for (i, (name, unit)) in self.columns.iter().enumerate() {
+            if self.columns[..i].iter().any(|(other, _)| other == name) {
                 return Err(DataError::Column {
                     file: file.to_owned(),
-                    column: header(column),
-                    reason: format!("a second column named {}", column.0),
+                    column: header(name, unit),
+                    reason: format!("a second column named {name}"),
                 });
             }
         }
-        for (column, values) in self.columns.iter().zip(&self.values) {
-            if let Some(k) = values.iter().position(|v| !v.is_finite()) {
-                return Err(DataError::Cell {
-                    file: file.to_owned(),
-                    row: self.rows.get(k).copied().unwrap_or(k + 2),
-                    column: header(column),
-                    reason: format!("{} is not a finite number", values[k]),
-                });
-            }
-        }
+        self.mark_non_finite();
         let Some(t) = self.columns.iter().position(|(name, _)| name == "time") else {
             return Err(DataError::Format {
                 file: file.to_owned(),
-                reason: "no `time [s]` column (give one, or rename yours with --map old=time)"
+                reason: "no `time [s]` column (give one, or rename yours with --rename old=time)"
                     .into(),
             });
         };
-        let mut columns = self.columns;
-        let mut values = self.values;
-        let (_, time_unit) = columns.remove(t);
-        let time = values.remove(t);
-        let factor =
-            units::factor(&time_unit, "time", "s").map_err(|reason| DataError::Column {
-                file: file.to_owned(),
-                column: format!("time [{time_unit}]"),
-                reason,
-            })?;
-        let time = units::to_si(&time, factor);
+        let (_, time_unit) = self.columns.remove(t);
+        let time = self.values.remove(t);
+        if let Some(unread) = self.unread.remove(t) {
+            return Err(unread_error(file, "time", &time_unit, unread));
+        }
+        let column_error = |reason: String| DataError::Column {
+            file: file.to_owned(),
+            column: header("time", &time_unit),
+            reason,
+        };
+        let factor = match time_unit.as_str() {
+            "" => Err(units::missing("time", "s")),
+            unit => units::factor(unit, "time", "s"),
+        };
+        let time = units::to_si(&time, factor.map_err(column_error)?);
         check_increasing(file, &time, &self.rows)?;
-        Ok(RunData {
+        let mut data = RunData {
             source: file.to_owned(),
-            digest: String::new(),
             time,
-            columns: (columns.into_iter().zip(values))
-                .map(|((name, unit), values)| DataColumn { name, unit, values })
-                .collect(),
-        })
+            ..RunData::default()
+        };
+        let columns = self.columns.into_iter().zip(self.values).zip(self.unread);
+        for (((name, unit), values), unread) in columns {
+            match unread {
+                None => data.columns.push(DataColumn { name, unit, values }),
+                Some((row, reason)) => data.unread.push(UnreadColumn {
+                    name,
+                    unit,
+                    row,
+                    reason,
+                }),
+            }
+        }
+        Ok(data)
+    }
+
+    /// Marks each column's first value that is not finite (a NaN or an infinity written in a
+    /// cell), unless a cell of it is already marked (its values there are NaN).
+    fn mark_non_finite(&mut self) {
+        for (values, unread) in self.values.iter().zip(&mut self.unread) {
+            let Some(k) = values.iter().position(|v| !v.is_finite()) else {
+                continue;
+            };
+            let row = self.rows.get(k).copied().unwrap_or(k + 2);
+            unread.get_or_insert((Some(row), format!("{} is not a finite number", values[k])));
+        }
+    }
+}
+
+/// The refusal of a column with a cell that is not a number (or of values that are not
+/// numbers).
+pub(super) fn unread_error(
+    file: &str,
+    name: &str,
+    unit: &str,
+    (row, reason): (Option<usize>, String),
+) -> DataError {
+    let (file, column) = (file.to_owned(), header(name, unit));
+    match row {
+        Some(row) => DataError::Cell {
+            file,
+            row,
+            column,
+            reason,
+        },
+        None => DataError::Column {
+            file,
+            column,
+            reason,
+        },
     }
 }
 

@@ -38,6 +38,7 @@ pub(super) fn parse(path: &Path, file: &str, bytes: &[u8]) -> Result<RawTable, D
     }
     let rows = (0..signals.time.len()).map(|k| k + 2).collect();
     Ok(RawTable {
+        unread: vec![None; columns.len()],
         columns,
         values,
         rows,

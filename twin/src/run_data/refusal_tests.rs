@@ -1,15 +1,17 @@
-//! Every refusal of the data format by its message, Parquet columns of other types, and
-//! malformed files (mutated CSV and Parquet, cut recordings) refused without a panic.
+//! Every refusal of the data format by its message (each naming what to change), Parquet
+//! columns of other types, and malformed files (mutated CSV and Parquet, cut recordings)
+//! refused without a panic.
 
 use super::tests::{loaded, scratch, small_plant, write};
 use super::*;
 use crate::run::Twin;
 use std::sync::Arc;
 
-/// The message of reading `text` as `name` and binding it to the small plant at 1 ms.
-fn refusal(dir: &Path, name: &str, text: &str) -> String {
+/// The message of reading `text` as `name` as `options` ask and binding it to the small plant
+/// at 1 ms.
+fn refusal(dir: &Path, name: &str, text: &str, options: &ReadOptions) -> String {
     let path = write(dir, name, text);
-    match RunData::read(&path, &[]).and_then(|d| d.bind(&small_plant(), 1e-3, 2)) {
+    match RunData::read_with(&path, options).and_then(|d| d.bind(&small_plant(), 1e-3, 2)) {
         Ok(_) => panic!("{name} was accepted:\n{text}"),
         Err(error) => error.to_string(),
     }
@@ -19,8 +21,36 @@ fn refusal(dir: &Path, name: &str, text: &str) -> String {
 fn every_refusal_names_the_file_and_the_row_or_column() {
     let dir = scratch("refusals");
     let file = |name: &str| dir.join(name).display().to_string();
-    for (name, text, expected) in refusal_cases() {
-        let message = refusal(&dir, name, &text);
+    let strict = ReadOptions {
+        strict: true,
+        ..ReadOptions::default()
+    };
+    let comma = ReadOptions {
+        delimiter: Some(Delimiter::Comma),
+        ..ReadOptions::default()
+    };
+    let cases = (refusal_cases().into_iter())
+        .chain(logger_refusal_cases())
+        .map(|(name, text, expected)| (name, text, expected, ReadOptions::default()))
+        .chain([
+            (
+                "unknown.csv",
+                "time [s],ram_speed [m/s]\n0,1\n0.001,2\n".to_owned(),
+                "column \"ram_speed [m/s]\": unknown signal ram_speed (known: effort.crank, \
+                 ram_position, crank.position; each signal also as true.<signal>); rename it \
+                 with --rename ram_speed=<known>, or read without --strict to leave it out",
+                strict,
+            ),
+            (
+                "forced.csv",
+                "time [s];ram_position [m]\n0;1\n0.001;2\n".to_owned(),
+                "its header is one column with the separator `,` but holds `;`; give \
+                 --delimiter ';'",
+                comma,
+            ),
+        ]);
+    for (name, text, expected, options) in cases {
+        let message = refusal(&dir, name, &text, &options);
         assert!(
             message.starts_with(&format!("{}: ", file(name)))
                 && message.contains(expected)
@@ -54,7 +84,7 @@ fn unreadable_files_and_bad_renames_are_refused() {
         ("a=b[m]", "brackets"),
     ] {
         let message = parse_renames(&[args.to_owned()]).unwrap_err().to_string();
-        assert!(message.starts_with(&format!("--map `{args}`: ")) && message.contains(expected));
+        assert!(message.starts_with(&format!("--rename `{args}`: ")) && message.contains(expected));
     }
     let unwritable = RunData::default().write_csv(&dir.join("nowhere/run.csv"));
     assert!(unwritable
@@ -105,15 +135,9 @@ fn refusal_cases() -> Vec<(&'static str, String, &'static str)> {
         ),
         (
             "nounit.csv",
-            "time [s],ram_position\n0,1\n".to_owned(),
+            "time [s],ram_position\n0,1\n0.001,2\n".to_owned(),
             "column \"ram_position\": no unit: give it in brackets after the name, e.g. \
-             \"ram_position [m]\"",
-        ),
-        (
-            "unknown.csv",
-            "time [s],ram_speed [m/s]\n0,1\n0.001,2\n".to_owned(),
-            "column \"ram_speed [m/s]\": unknown signal ram_speed (known: effort.crank, \
-             ram_position, crank.position;",
+             \"ram_position [m]\", or in a units row under the header",
         ),
         (
             "run.csv",
@@ -164,6 +188,75 @@ fn refusal_cases() -> Vec<(&'static str, String, &'static str)> {
     ]
 }
 
+/// The refusals of a logger's ways (name, text, the words the refusal must hold): each says
+/// what to change, with an example that fits the column.
+fn logger_refusal_cases() -> Vec<(&'static str, String, &'static str)> {
+    let no_unit = "no unit: give it in brackets after the name, e.g.";
+    vec![
+        (
+            "timeunit-missing.csv",
+            "# logged\ntime,ram_position [m]\n0,1\n0.001,2\n".to_owned(),
+            "column \"time\": no unit: give it in brackets after the name, e.g. \"time [s]\", \
+             or in a units row under the header",
+        ),
+        (
+            "effort-unit.csv",
+            "time [s],effort.crank\n0,1\n0.001,2\n".to_owned(),
+            "column \"effort.crank\": no unit: give it in brackets after the name, e.g. \
+             \"effort.crank [N·m]\"",
+        ),
+        (
+            "units-row-gap.csv",
+            "time;ram_position;crank.position\ns;;rad\n0;1;2\n0,001;1;2\n".to_owned(),
+            no_unit,
+        ),
+        (
+            "units-clash.csv",
+            "time [s],ram_position\nms,m\n0,1\n0.001,2\n".to_owned(),
+            "column \"time [s]\": its unit is s in the header but ms in the units row (row 2); \
+             give one",
+        ),
+        (
+            "separator.csv",
+            "time [s];ram_position [m]\n0;1\n0.001,1\n".to_owned(),
+            "row 3: 1 cells where the header has 2, cut at the separator `;`, as the header's; \
+             if the file has another separator, give it with --delimiter",
+        ),
+        (
+            "decimal.csv",
+            "time [s],ram_position [m]\n0,1\n0.001,0,5\n".to_owned(),
+            "row 3: 3 cells where the header has 2, cut at the separator `,`",
+        ),
+        (
+            "thousands.csv",
+            "time [s];ram_position [mm]\n0;1\n0,001;1.234,5\n".to_owned(),
+            "row 3, column \"ram_position [mm]\": `1.234,5` is not a number",
+        ),
+        (
+            "bracket.csv",
+            "time [s,ram_position [m]\n0,1\n0.001,2\n".to_owned(),
+            "column \"time [s\": its brackets do not close around a unit at its end; write it \
+             as \"time [s]\"",
+        ),
+        (
+            "units-row-width.csv",
+            "time,ram_position\ns\n0,1\n".to_owned(),
+            "row 2: the units row has 1 cells where the header has 2",
+        ),
+        (
+            "comments-only.csv",
+            "# a logger's preamble\n\n# and nothing else\n".to_owned(),
+            "not a CSV file: it is empty (its first line that is not a `#` comment is the header",
+        ),
+        (
+            "signal-unit.csv",
+            "time (ms);crank.position (grad)\n0;1\n1;2\n".to_owned(),
+            "column \"crank.position [grad]\": unit grad is not known; crank.position is in rad \
+             (give rad or deg)",
+        ),
+    ]
+}
+
 /// A Parquet file of columns of the given types and values.
 fn parquet_of(path: &Path, columns: Vec<(&str, arrow_array::ArrayRef)>) {
     use arrow_schema::{Field, Schema};
@@ -198,6 +291,21 @@ fn parquet_columns_of_other_number_types_are_read_and_others_refused() {
     let data = RunData::read(&path, &[]).expect("reads");
     assert_eq!(data.time, [0.0, 1e-3, 2e-3]);
     assert_eq!(data.column("ram_position").unwrap().values, [0.5, 1.5, 2.5]);
+    let bound = |path: &Path| RunData::read(path, &[]).and_then(|d| d.bind(&small_plant(), 1.0, 1));
+    parquet_of(
+        &path,
+        vec![
+            ("time [s]", Arc::new(Float64Array::from(vec![0.0, 1.0]))),
+            ("status", Arc::new(StringArray::from(vec!["RUN", "STOP"]))),
+            (
+                "ram_position [mm]",
+                Arc::new(Float32Array::from(vec![0.5, 1.5])),
+            ),
+        ],
+    );
+    let trace = bound(&path).expect("a column of text the plant does not know is left out");
+    assert_eq!(trace.left_out, ["status"]);
+    assert_eq!(trace.measured[0].as_deref(), Some(&[0.5e-3, 1.5e-3][..]));
     parquet_of(
         &path,
         vec![
@@ -208,7 +316,7 @@ fn parquet_columns_of_other_number_types_are_read_and_others_refused() {
             ),
         ],
     );
-    let message = RunData::read(&path, &[]).unwrap_err().to_string();
+    let message = bound(&path).unwrap_err().to_string();
     assert!(
         message.contains("column \"ram_position [m]\": its values are Utf8, not numbers"),
         "{message}"
@@ -223,7 +331,7 @@ fn parquet_columns_of_other_number_types_are_read_and_others_refused() {
             ),
         ],
     );
-    let message = RunData::read(&path, &[]).unwrap_err().to_string();
+    let message = bound(&path).unwrap_err().to_string();
     assert!(
         message.contains("row 3, column \"ram_position [m]\": empty cell"),
         "{message}"

@@ -291,3 +291,201 @@ fn irregular_rows_are_resampled_linearly_and_commands_held() {
     assert!((rate.max_period - 0.0021).abs() < 1e-15);
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// The twin's own file, to which every logger's way of writing it must read back, bit for bit.
+const PLAIN: &str = "time [s],ram_position [m],crank.position [rad],effort.crank [N·m]\n\
+                     0,0.25,1.5,2\n\
+                     0.001,0.5,-1.25,3\n\
+                     0.002,-0.75,1e-3,-4.5\n";
+
+/// `text` read as `name` with `options` and bound to the small plant at 1 ms.
+fn bound_with(dir: &Path, name: &str, text: &str, options: &ReadOptions) -> Trace {
+    let path = write(dir, name, text);
+    let data = RunData::read_with(&path, options).unwrap_or_else(|e| panic!("{name}: {e}"));
+    data.bind(&small_plant(), 1e-3, 2)
+        .unwrap_or_else(|e| panic!("{name}: {e}"))
+}
+
+fn same_trace(a: &Trace, b: &Trace) -> bool {
+    let lists = |t: &Trace| -> Vec<Option<Vec<f64>>> {
+        (t.commands.iter().chain(&t.measured).chain(&t.truth))
+            .cloned()
+            .collect()
+    };
+    let same = |a: &Option<Vec<f64>>, b: &Option<Vec<f64>>| match (a, b) {
+        (Some(a), Some(b)) => same_bits(a, b),
+        (a, b) => a.is_none() && b.is_none(),
+    };
+    a.samples == b.samples
+        && a.start_time.to_bits() == b.start_time.to_bits()
+        && lists(a).iter().zip(&lists(b)).all(|(a, b)| same(a, b))
+}
+
+#[test]
+fn a_loggers_ways_of_writing_the_table_read_as_the_twins_own() {
+    let dir = scratch("logger-ways");
+    let plain = bound_with(&dir, "plain.csv", PLAIN, &ReadOptions::default());
+    let cases = [
+        (
+            "semicolon.csv",
+            "# Logger X-200, firmware 3.1\n\
+             # started 2024-05-02 10:14\n\
+             time;ram_position;crank.position;effort.crank\n\
+             s;m;rad;N·m\n\
+             0;0,25;1,5;2\n\
+             # a pause in the logging\n\
+             0,001;0,5;-1,25;3\n\
+             0,002;-0,75;1e-3;-4,5\n",
+        ),
+        (
+            "tab.csv",
+            "time (ms)\tram_position (mm)\tcrank.position (rad)\teffort.crank (N.mm)\n\
+             0\t250\t1,5\t2000\n\
+             1\t500\t-1,25\t3000\n\
+             2\t-750\t0,001\t-4500\n",
+        ),
+        (
+            "quoted.csv",
+            "\"time [s]\",\"ram_position [m]\",\"crank.position [rad]\",\"effort.crank [N·m]\"\n\
+             \"0\",\"0.25\",1.5,\"2\"\n\
+             0.001,\"0.5\",\"-1.25\",3\n\
+             \"0.002\",-0.75,\"1e-3\",\"-4.5\"\n",
+        ),
+        (
+            "quoted-semicolon.csv",
+            "time;\"ram_position\";crank.position;effort.crank\n\
+             [s];[m];(rad);\"N·m\"\n\
+             \"0\";\"0,25\";1,5;2\n\
+             0,001;\"0,5\";-1,25;3\n\
+             0,002;-0,75;0,001;-4,5\n",
+        ),
+        (
+            "units-row-and-brackets.csv",
+            "\u{feff}time [s],ram_position,crank.position [rad],effort.crank\r\n\
+             ,m,,N·m\r\n\
+             0,0.25,1.5,2\r\n\r\n\
+             0.001,0.5,-1.25,3\r\n\
+             0.002,-0.75,0.001,-4.5\r\n",
+        ),
+    ];
+    for (name, text) in cases {
+        let trace = bound_with(&dir, name, text, &ReadOptions::default());
+        assert!(same_trace(&trace, &plain), "{name}: {trace:?}\n{plain:?}");
+        assert!(trace.left_out.is_empty(), "{name}: {:?}", trace.left_out);
+    }
+    // The tab file's separator given rather than found: the same table.
+    let tab = ReadOptions {
+        delimiter: Some(Delimiter::Tab),
+        ..ReadOptions::default()
+    };
+    let text = cases[1].1;
+    assert!(same_trace(&bound_with(&dir, "tab.csv", text, &tab), &plain));
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn the_separator_is_the_one_the_header_holds_most_of() {
+    let dir = scratch("separator");
+    let read = |name: &str, text: &str| {
+        let data = RunData::read(&write(&dir, name, text), &[]).unwrap_or_else(|e| panic!("{e}"));
+        let names: Vec<&str> = data.columns.iter().map(|c| c.name.as_str()).collect();
+        (names.join("|"), data.column("b").map(|c| c.values.clone()))
+    };
+    // A comma inside a `;` file's header is part of a name; the `;` file's decimal comma reads.
+    let (names, b) = read("semicolon.csv", "time [s];a,x [1];b [1]\n0;1;2,5\n");
+    assert_eq!((names.as_str(), b), ("a,x|b", Some(vec![2.5])));
+    // A quoted separator does not count.
+    let (names, b) = read("quoted.csv", "time [s],\"a;x;y [1]\",b [1]\n0,1,2.5\n");
+    assert_eq!((names.as_str(), b), ("a;x;y|b", Some(vec![2.5])));
+    // Tab wins a tie, and `,` is the separator of a header without any.
+    let (names, _) = read("tie.csv", "time [s]\ta;b [1]\n0\t1\n");
+    assert_eq!(names, "a;b");
+    let (names, _) = read("one.csv", "time [s]\n0\n");
+    assert_eq!(names, "");
+    // Given, the separator is taken as given.
+    for (given, expected) in [(",", ','), ("comma", ','), (";", ';'), ("tab", '\t')] {
+        let delimiter: Delimiter = given.parse().expect("a separator");
+        assert_eq!(delimiter.separator(), expected);
+    }
+    let refused = "|".parse::<Delimiter>().unwrap_err();
+    assert_eq!(refused, "`|` is not a separator; give `,`, `;` or `tab`");
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn columns_the_plant_does_not_know_are_left_out_with_a_note_or_refused_when_strict() {
+    let dir = scratch("unknown-columns");
+    let text = "# spindle test\n\
+                time;temperature;ram_position;status;true.spindle_speed;effort.table;mode\n\
+                s;°C;mm;1;rpm;N;\n\
+                0;21,5;250;0x0037;1200;3;RUN\n\
+                0,001;21,5;500;0x0037;1200;3;\n\
+                0,002;21,6;-750;0x0036;1201;3;STOP\n";
+    let path = write(&dir, "logger.csv", text);
+    let file = path.display().to_string();
+    let data = RunData::read(&path, &[]).expect("reads");
+    assert_eq!(data.unread.len(), 2, "status and mode are not numbers");
+    assert_eq!(data.unread[0].row, Some(4));
+    let trace = data.bind(&small_plant(), 1e-3, 2).expect("binds");
+    let left_out = [
+        "temperature [°C]",
+        "true.spindle_speed [rpm]",
+        "effort.table [N]",
+        "status [1]",
+        "mode",
+    ];
+    assert_eq!(trace.left_out, left_out);
+    assert_eq!(trace.measured[0].as_deref(), Some(&[0.25, 0.5, -0.75][..]));
+    assert_eq!(
+        left_out_note(&trace.source, &trace.left_out).as_deref(),
+        Some(
+            format!(
+                "{file}: left out 5 columns the scenario does not know: temperature [°C], \
+                 true.spindle_speed [rpm], effort.table [N], status [1], mode (--strict refuses \
+                 them)"
+            )
+            .as_str()
+        )
+    );
+    assert_eq!(left_out_note(&file, &[]), None);
+    assert_eq!(
+        left_out_note(&file, &["x [1]".to_owned()]),
+        Some(format!(
+            "{file}: left out 1 column the scenario does not know: x [1] (--strict refuses it)"
+        ))
+    );
+    // Left out of the data itself, for a caller that binds later.
+    let mut pruned = data.clone();
+    assert_eq!(
+        pruned.leave_out_unknown(&small_plant()).expect("known"),
+        left_out
+    );
+    assert_eq!(pruned.columns.len(), 1);
+    assert!(pruned.unread.is_empty());
+    let again = pruned.bind(&small_plant(), 1e-3, 2).expect("binds");
+    assert!(again.left_out.is_empty() && same_trace(&again, &trace));
+    // Strict, the first one is refused, naming the fix.
+    let strict = ReadOptions {
+        strict: true,
+        ..ReadOptions::default()
+    };
+    let data = RunData::read_with(&path, &strict).expect("reads");
+    let message = data.bind(&small_plant(), 1e-3, 2).unwrap_err().to_string();
+    assert!(
+        message.starts_with(&format!(
+            "{file}: column \"temperature [°C]\": unknown signal temperature"
+        )) && message.contains("--rename temperature=<known>, or read without --strict"),
+        "{message}"
+    );
+    let mut data = data;
+    assert!(data.leave_out_unknown(&small_plant()).is_err());
+    // A column the plant knows with a cell that is not a number is refused all the same.
+    let text = "time [s],ram_position [m],mode\n0,1,RUN\n0.001,x,RUN\n";
+    let data = RunData::read(&write(&dir, "known.csv", text), &[]).expect("reads");
+    let message = data.bind(&small_plant(), 1e-3, 2).unwrap_err().to_string();
+    assert!(
+        message.ends_with("row 3, column \"ram_position [m]\": `x` is not a number"),
+        "{message}"
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -87,6 +87,15 @@ pub(super) fn factor(unit: &str, name: &str, si: &str) -> Result<f64, String> {
     }
 }
 
+/// The refusal of a column of `name` without a unit, giving it its SI unit `si` as the
+/// example.
+pub(super) fn missing(name: &str, si: &str) -> String {
+    format!(
+        "no unit: give it in brackets after the name, e.g. \"{name} [{si}]\", or in a units row \
+         under the header"
+    )
+}
+
 /// `values` (in a unit of SI value `factor`) in SI; bit-identical for an SI unit.
 pub(super) fn to_si(values: &[f64], factor: f64) -> Vec<f64> {
     if factor == 1.0 {

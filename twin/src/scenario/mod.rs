@@ -187,8 +187,19 @@ pub struct CalibrationSpec {
     pub closed_loop: bool,
     /// Starts of the solve (`--starts`).
     pub starts: Option<usize>,
-    /// Column renames, old name = new name (`--map`).
-    pub map: BTreeMap<String, String>,
+    /// Column renames, old name = new name (`--rename`).
+    pub rename: BTreeMap<String, String>,
+    /// `[calibration.map]`, the old name of `[calibration.rename]`: never read, as it is refused
+    /// with the new name.
+    #[serde(rename = "map", deserialize_with = "refuse_old_map")]
+    _map: Option<toml::Table>,
+}
+
+/// Refuses `[calibration.map]` in one line: the table is `[calibration.rename]` now.
+fn refuse_old_map<'de, D: serde::Deserializer<'de>>(_: D) -> Result<Option<toml::Table>, D::Error> {
+    Err(serde::de::Error::custom(
+        "the table is now called [calibration.rename]; rename [calibration.map] to it",
+    ))
 }
 
 /// One parameter of `[calibration.fit]`.

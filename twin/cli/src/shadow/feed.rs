@@ -4,13 +4,14 @@
 
 use super::publish::Publisher;
 use super::ShadowArgs;
+use crate::data_flags::leave_out_unknown;
 use crate::failure::Failure;
 use crate::machine_link::{LinkEvent, LinkOptions, MachineLink, MachineMap};
 use crate::serve::security::read_password;
 use framework::EventLevel;
 use std::path::Path;
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
-use twin::data::{parse_renames, ColumnRole, RunData};
+use twin::data::{ColumnRole, RunData};
 use twin::shadowing::{describe, Shadow, ShadowRecording, ShadowStep};
 use twin::StopFlag;
 
@@ -63,9 +64,9 @@ impl Feed {
     /// Reads the data or the map (connecting happens once the shadow is bound).
     pub fn open(args: &ShadowArgs) -> Result<Self, Failure> {
         if let Some(path) = &args.data {
-            let renames = parse_renames(&args.rename)?;
+            let options = args.reading.options(&Default::default())?;
             return Ok(Feed::Data {
-                data: RunData::read(path, &renames)?,
+                data: RunData::read_with(path, &options)?,
                 bindings: Vec::new(),
             });
         }
@@ -122,6 +123,7 @@ impl Feed {
         };
         match self {
             Feed::Data { data, bindings } => {
+                leave_out_unknown(data, shadow.columns())?;
                 *bindings = (data.columns.iter())
                     .map(|c| bind(&c.name, &c.unit).map_err(|e| format!("{}: {e}", data.source)))
                     .collect::<Result<_, _>>()?;

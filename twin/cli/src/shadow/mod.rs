@@ -7,6 +7,7 @@ mod feed;
 mod publish;
 mod report;
 
+use crate::data_flags::DataFlags;
 use crate::failure::Failure;
 use crate::serve::Security;
 use crate::signals::stop_on_signals;
@@ -37,9 +38,9 @@ pub struct ShadowArgs {
     /// Real-time factor of --replay.
     #[arg(long, default_value_t = 1.0, requires = "replay")]
     pub rate: f64,
-    /// Rename a data column: OLD=NEW (names without units).
-    #[arg(long = "rename", value_name = "OLD=NEW")]
-    pub rename: Vec<String>,
+    /// How --data is read.
+    #[command(flatten)]
+    pub reading: DataFlags,
     /// The measured signals to watch (default: every one the data give that the model
     /// predicts).
     #[arg(long, value_delimiter = ',')]

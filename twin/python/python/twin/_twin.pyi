@@ -47,6 +47,8 @@ class Comparison(TypedDict):
     measured: dict[str, Array]
     simulated: dict[str, Array]
     units: dict[str, str]
+    #: The columns the scenario does not know, left out: one line per file that had some.
+    notes: list[str]
 
 class RunSeries(TypedDict):
     """One run of a calibration: its file and, per fitted signal, the series."""
@@ -75,6 +77,8 @@ class Calibration(TypedDict):
     scenario: Scenario
     runs: list[RunSeries]
     validation: list[RunSeries]
+    #: The columns the scenario does not know, left out: one line per file that had some.
+    notes: list[str]
 
 def calibrate(
     scenario: Union[Scenario, Path],
@@ -92,7 +96,9 @@ def calibrate(
     starts: Union[int, None] = None,
     max_iterations: int = 50,
     threads: int = 0,
-    map: Union[Mapping[str, str], None] = None,
+    rename: Union[Mapping[str, str], None] = None,
+    delimiter: Union[str, None] = None,
+    strict: bool = False,
     progress: Union[Callable[[int, float, float], object], None] = None,
 ) -> Calibration: ...
 
@@ -134,7 +140,9 @@ class Scenario:
         data: Path,
         *,
         closed_loop: bool = False,
-        map: Union[Mapping[str, str], None] = None,
+        rename: Union[Mapping[str, str], None] = None,
+        delimiter: Union[str, None] = None,
+        strict: bool = False,
     ) -> Comparison: ...
 
 class Simulator:
