@@ -305,6 +305,10 @@ impl Assembly {
         let groups = [(&probes[0], position_rates, true), (&probes[1], velocities, false)];
         for (group, fits, rate) in groups {
             for (probe, fit) in group.iter().zip(fits) {
+                // A joint whose velocity is logged takes it from there, not from its positions.
+                if rate && probes[1].iter().any(|v| v.joint == probe.joint) {
+                    continue;
+                }
                 let (target, error) = match rate {
                     true => (fit.rate, fit.rate_error),
                     false => (fit.value, fit.value_error),
