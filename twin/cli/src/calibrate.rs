@@ -277,16 +277,19 @@ fn report(result: &Calibration) -> String {
             if e.widened { "  widened, not trusted" } else { "" }
         );
     }
-    let segments = match result.segment {
-        0.0 => format!("{} whole runs", result.segments),
-        s => format!("{} segments of {s} s", result.segments),
+    let segments = match (result.segment, result.segments) {
+        (0.0, 1) => "1 whole run".to_string(),
+        (0.0, n) => format!("{n} whole runs"),
+        (s, n) => format!("{n} segments of {s} s"),
+    };
+    let states = match result.start_states {
+        0 => "no start state fitted".to_string(),
+        n => format!("{n} start states fitted, in {}", result.coordinates.join(", ")),
     };
     out += &format!(
-        "{} iterations, {} rollouts, {segments} ({} start states fitted in {}), σ̂² = {:.4}, solver {}\n",
+        "{} iterations, {} rollouts, {segments} ({states}), σ̂² = {:.4}, solver {}\n",
         result.iterations.len().saturating_sub(1),
         result.rollouts,
-        result.start_states,
-        result.coordinates.join(", "),
         result.residual_variance,
         if result.converged {
             "converged"

@@ -76,7 +76,7 @@ pub struct Calibration {
     pub notes: Vec<String>,
     /// Segment length, s; 0: whole runs.
     pub segment: f64,
-    /// The mechanism's independent coordinates, in which the start states are fitted.
+    /// The mechanism's independent coordinates whose start states are fitted.
     pub coordinates: Vec<String>,
     /// The parameters (shared, then per run), without the segments' start states.
     pub estimates: Vec<Estimate>,
@@ -159,7 +159,7 @@ pub fn calibrate(
         verdict,
         notes: problem.notes.clone(),
         segment: problem.length,
-        coordinates: problem.coordinates.clone(),
+        coordinates: fitted_coordinates(&problem),
         correlation: statistics.correlation(&problem),
         estimates,
         runs,
@@ -197,6 +197,18 @@ fn checked(problem: &mut Problem) -> Result<(Linearised, Vec<String>), Calibrati
     jacobian = jacobian.remove_columns_at(&idle);
     let warnings = check::identifiable(&problem.unknowns, &jacobian)?;
     Ok(((residuals, jacobian), warnings))
+}
+
+/// The independent coordinates whose start states are fitted, in order.
+fn fitted_coordinates(problem: &Problem) -> Vec<String> {
+    let mut names: Vec<String> = Vec::new();
+    for unknown in problem.unknowns.iter().filter(|u| u.coordinate.is_some()) {
+        let name = unknown.key.split('.').nth(1).unwrap_or_default().to_string();
+        if !names.contains(&name) {
+            names.push(name);
+        }
+    }
+    names
 }
 
 /// Per fitted signal, its figures on the run where it fits worst.

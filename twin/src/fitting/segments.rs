@@ -170,6 +170,25 @@ fn first_placement(
         .ok_or_else(|| "no assembly reads the logged positions".into())
 }
 
+/// The fitted signals replayed over `segment` from `placement`, each divided by its noise σ
+/// (`None` where the twin cannot run it).
+fn replay(
+    replayer: &Replayer,
+    assembly: &mut Assembly,
+    trace: &Trace,
+    segment: Segment,
+    placement: &Placement,
+    setting: &Setting,
+) -> Option<Vec<Vec<f64>>> {
+    let mut values = assembly.initial_values(&placement.anchor, &placement.x).ok()?;
+    values.extend(setting.parameters.iter().cloned());
+    let simulated = (replayer.simulate(trace, segment, &values, setting.outputs)).ok()?;
+    let weighted = (simulated.into_iter().zip(setting.sigma))
+        .map(|(row, sigma)| row.into_iter().map(|v| v / sigma).collect::<Vec<f64>>())
+        .collect::<Vec<_>>();
+    weighted.iter().flatten().all(|v| v.is_finite()).then_some(weighted)
+}
+
 /// The weighted squared residual of a replay of `segment` from `placement` (infinite where the
 /// twin cannot run it).
 fn replay_cost(
@@ -180,25 +199,20 @@ fn replay_cost(
     placement: &Placement,
     setting: &Setting,
 ) -> f64 {
-    let Ok(mut values) = assembly.initial_values(&placement.anchor, &placement.x) else {
-        return f64::INFINITY;
-    };
-    values.extend(setting.parameters.iter().cloned());
-    let Ok(simulated) = replayer.simulate(trace, segment, &values, setting.outputs) else {
+    let Some(replayed) = replay(replayer, assembly, trace, segment, placement, setting) else {
         return f64::INFINITY;
     };
     let mut cost = 0.0;
-    for ((row, &i), sigma) in simulated.iter().zip(setting.outputs).zip(setting.sigma) {
+    for ((row, &i), sigma) in replayed.iter().zip(setting.outputs).zip(setting.sigma) {
         let measured = trace.measured[i].as_deref().unwrap_or_default();
         let measured = &measured[segment.start..segment.start + segment.len];
         cost += (measured.iter().zip(row))
-            .map(|(y, s)| ((y - s) / sigma).powi(2))
+            .map(|(y, s)| (y / sigma - s).powi(2))
             .sum::<f64>();
     }
-    if cost.is_finite() {
-        cost
-    } else {
-        f64::INFINITY
+    match cost.is_finite() {
+        true => cost,
+        false => f64::INFINITY,
     }
 }
 
@@ -224,13 +238,20 @@ fn idle(
             len,
             lead: 0,
         };
-        let base = replay_cost(replayer, assembly, trace, segment, first, setting);
+        let Some(base) = replay(replayer, assembly, trace, segment, first, setting) else {
+            return Ok(false);
+        };
         for c in (0..k).filter(|&c| !placed[c]) {
             for offset in [c, k + c] {
                 let mut moved = first.clone();
                 moved.x[offset] += 1.0;
-                let cost = replay_cost(replayer, assembly, trace, segment, &moved, setting);
-                if !(cost.is_finite() && (cost - base).abs() <= IDLE * IDLE * len as f64) {
+                let Some(other) = replay(replayer, assembly, trace, segment, &moved, setting)
+                else {
+                    return Ok(false);
+                };
+                let change = (base.iter().flatten().zip(other.iter().flatten()))
+                    .fold(0.0_f64, |m, (a, b)| m.max((a - b).abs()));
+                if change > IDLE {
                     return Ok(false);
                 }
             }

@@ -263,7 +263,7 @@ fn units_convert_to_si_and_renames_apply_first() {
 }
 
 #[test]
-fn irregular_rows_are_resampled_linearly_and_commands_held() {
+fn irregular_rows_are_resampled_linearly_and_commands_held_or_bridged_across_a_gap() {
     let dir = scratch("irregular");
     let text = "time [s],ram_position [m],true.ram_position [m],effort.crank [N·m]\n\
                 0,0,10,1\n\
@@ -280,11 +280,16 @@ fn irregular_rows_are_resampled_linearly_and_commands_held() {
     assert!(close(measured, &[0.0, 2.0, 4.0, 6.0, 8.0]), "{measured:?}");
     let truth = trace.truth[0].as_deref().unwrap();
     assert!(close(truth, &[10.0, 12.0, 14.0, 16.0, 18.0]), "{truth:?}");
-    // The last command at or before each grid time.
-    assert_eq!(
-        trace.commands[0].as_deref(),
-        Some(&[1.0, 1.0, 3.0, 3.0, 3.0][..])
+    // The last command at or before each grid time, where the rows are at most 1.5 periods
+    // apart; across the 2.1 ms gap, between the rows around it (linear: no row beyond).
+    let commands = trace.commands[0].as_deref().unwrap();
+    assert!(
+        close(commands, &[1.0, 1.0, 3.0, 3.0 + 1.0 / 2.1, 3.0 + 2.0 / 2.1]),
+        "{commands:?}"
     );
+    // The rows' own places on the grid, where a fit compares.
+    assert!(close(trace.rows.as_deref().unwrap(), &[0.0, 1.5, 2.0, 4.1]));
+    assert!(close(trace.logged[0].as_deref().unwrap(), &[0.0, 3.0, 4.0, 8.2]));
     let rate = trace.rate;
     assert!((rate.mean_period - 0.0041 / 3.0).abs() < 1e-15);
     assert!((rate.min_period - 0.0005).abs() < 1e-15);
