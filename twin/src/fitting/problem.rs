@@ -65,8 +65,6 @@ pub struct Problem<'a> {
     pub length: f64,
     /// What the layout decided that the user should hear (a run replayed whole, and why).
     pub notes: Vec<String>,
-    /// The independent coordinates' joints.
-    pub coordinates: Vec<String>,
     /// Values set in every segment besides the unknowns (parameters held while the start states
     /// are fitted alone).
     pub held: Vec<(String, f64)>,
@@ -371,7 +369,6 @@ impl<'a> Problem<'a> {
             starts: layout.starts,
             length: layout.length,
             notes: layout.notes,
-            coordinates,
             held: Vec::new(),
             observations,
             outputs,

@@ -10,6 +10,12 @@ use crate::run_data::Trace;
 
 /// Fewest samples a segment may have: a start state and its first moves.
 pub const MIN_SEGMENT_SAMPLES: usize = 10;
+/// A start moved by a small step whose replay has moved this many times as far has drifted: the
+/// model amplifies what it is started with.
+const DRIFT_GROWTH: f64 = 100.0;
+/// The default segment lengths, s, longest first: the longest within the drift horizon is
+/// taken.
+const LENGTHS: [f64; 7] = [DEFAULT_SEGMENT, 0.5, 0.25, 0.1, 0.05, 0.025, 0.01];
 /// Seconds of replay that choose between assemblies the first samples leave open.
 const CHOICE_SPAN: f64 = 0.2;
 /// A change of a coordinate's start (1 rad or m, 1 rad/s or m/s) that moves the fitted signals
@@ -55,7 +61,6 @@ pub fn lay_out(
     let mut firsts = Vec::with_capacity(traces.len());
     let mut unplaced: Option<String> = None;
     for (run, trace) in traces.iter().enumerate() {
-        let probes = &setting.probes[run];
         match first_placement(replayer, assembly, trace, run, setting) {
             Ok(first) => firsts.push(Some(first)),
             Err(reason) => {
@@ -63,7 +68,6 @@ pub fn lay_out(
                 firsts.push(None);
             }
         }
-        let _ = probes;
     }
     let mut placed = vec![firsts.iter().all(Option::is_some); names.len()];
     if unplaced.is_none() {
@@ -100,7 +104,20 @@ pub fn lay_out(
             0.0
         }
         (Some(s), _) => s,
-        (None, None) => DEFAULT_SEGMENT,
+        (None, None) => {
+            let horizon = (traces.iter().zip(&firsts))
+                .filter_map(|(trace, first)| {
+                    drift_horizon(replayer, assembly, trace, first.as_ref()?, setting)
+                })
+                .fold(f64::INFINITY, f64::min);
+            let length = default_length(horizon, replayer.shape.period);
+            if length < DEFAULT_SEGMENT {
+                notes.push(format!(
+                    "segments of {length} s, not {DEFAULT_SEGMENT} s: the model's replays part from a start {DRIFT_GROWTH}× as far within {horizon:.3} s, so a longer segment would not stay near its run (give --segment to choose)"
+                ));
+            }
+            length
+        }
     };
     let period = replayer.shape.period;
     let segments = segments(traces, length, period)?;
@@ -146,7 +163,11 @@ fn first_placement(
 ) -> Result<Placement, String> {
     let probes = &setting.probes[run];
     if probes[0].is_empty() {
-        return Err("no joint position is logged".into());
+        let joints = assembly.coordinate_names();
+        return Err(format!(
+            "no joint position is logged, and the mechanism's place is its joints' ({}): log them for segments",
+            joints.join(", ")
+        ));
     }
     let mut candidates = assembly.candidates(trace, probes)?;
     if candidates.len() == 1 {
@@ -258,6 +279,67 @@ fn idle(
         }
     }
     Ok(true)
+}
+
+/// The longest of [`LENGTHS`] within `horizon` (s), and at least [`MIN_SEGMENT_SAMPLES`]
+/// control periods.
+fn default_length(horizon: f64, period: f64) -> f64 {
+    let shortest = MIN_SEGMENT_SAMPLES as f64 * period;
+    (LENGTHS.iter().copied())
+        .find(|&l| l <= horizon)
+        .unwrap_or(shortest)
+        .max(shortest)
+}
+
+/// How long the model's replay from `placement` (at the parameters' starts) takes to carry a
+/// small step of one coordinate's start position [`DRIFT_GROWTH`] times as far, for the
+/// independent coordinate that drifts first: an unstable motion, or one the process amplifies.
+/// The step is a thousandth of the coordinate's travel over the replay. At most
+/// [`DEFAULT_SEGMENT`]; `None` where the twin cannot replay it.
+fn drift_horizon(
+    replayer: &Replayer,
+    assembly: &mut Assembly,
+    trace: &Trace,
+    placement: &Placement,
+    setting: &Setting,
+) -> Option<f64> {
+    let names = assembly.coordinate_names();
+    let outputs: Vec<usize> = (names.iter())
+        .filter_map(|n| replayer.shape.signal(&format!("{n}.position")))
+        .collect();
+    if outputs.len() != names.len() {
+        return None;
+    }
+    let len = ((DEFAULT_SEGMENT / trace.period).round() as usize).clamp(2, trace.samples);
+    let segment = Segment {
+        run: 0,
+        start: 0,
+        len,
+        lead: 0,
+    };
+    let probe = |assembly: &mut Assembly, placement: &Placement| {
+        let mut values = assembly.initial_values(&placement.anchor, &placement.x).ok()?;
+        values.extend(setting.parameters.iter().cloned());
+        replayer.simulate(trace, segment, &values, &outputs).ok()
+    };
+    let base = probe(assembly, placement)?;
+    let mut horizon: Option<usize> = None;
+    for (c, series) in base.iter().enumerate() {
+        let (low, high) = (series.iter()).fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), v| {
+            (l.min(*v), h.max(*v))
+        });
+        let step = 1e-3 * (high - low);
+        if !(step > 0.0 && step.is_finite()) {
+            continue;
+        }
+        let mut moved = placement.clone();
+        moved.x[c] += step;
+        let other = probe(assembly, &moved)?;
+        let drifted = (0..horizon.unwrap_or(len))
+            .find(|&k| !((other[c][k] - series[k]).abs() <= DRIFT_GROWTH * step));
+        horizon = drifted.or(horizon);
+    }
+    Some(horizon.map_or(DEFAULT_SEGMENT, |k| k as f64 * trace.period))
 }
 
 /// The segments of the runs: stretches of `seconds` (a last stretch shorter than half of one
