@@ -144,31 +144,13 @@ const FEED_AXIS: Machine = Machine {
     scenario: feed_axis_scenario,
 };
 
-/// The arm with ideal drives (its actuators take the logged torques) and a free spindle (MuJoCo
-/// drives no spindle).
+/// The arm with ideal drives (its actuators take the logged torques) and its spindle's power
+/// off (MuJoCo drives no spindle: it turns free).
 fn arm_scenario() -> ScenarioBuilder {
-    let mut builder = Scenario::builtin("arm-milling")
-        .unwrap()
+    (Scenario::builtin("arm-milling").unwrap())
         .set("actuators.\"*\".kind", "effort")
-        .unwrap();
-    let drive = [
-        ("torque_constant", 1.0),
-        ("back_emf_constant", 1e-9),
-        ("resistance", 0.3),
-        ("inductance", 0.5e-3),
-        ("gear_ratio", 1.0),
-        ("supply_voltage", 48.0),
-        ("current_limit", 1e-12),
-        ("current_bandwidth", 2000.0),
-        ("current_loop_period", 1e-4),
-    ];
-    let spindle = [("speed", 0.0), ("speed_bandwidth", 1e-9)];
-    let keys = (spindle.iter().map(|(k, v)| (format!("process.spindle.{k}"), *v)))
-        .chain(drive.iter().map(|(k, v)| (format!("process.spindle.drive.{k}"), *v)));
-    for (key, value) in keys {
-        builder = builder.set(&key, value).unwrap();
-    }
-    builder
+        .and_then(|b| b.set("process.spindle_power", "off"))
+        .unwrap()
 }
 
 /// The feed axis in the air (MuJoCo cuts nothing), at MuJoCo's control period.

@@ -112,8 +112,9 @@ pub fn segment_table(segments: &[SegmentFit]) -> String {
     for segment in listed {
         if let Some(fit) = worst(segment) {
             out += &format!(
-                "    {:>9.3} – {:<9.3} s  {:<28} {:>9.3} %\n",
-                segment.start_time, segment.end_time, fit.signal, fit.fit_percent
+                "    {:>16}  {:<28} {:>9.3} %\n",
+                format!("{:.3}–{:.3} s", segment.start_time, segment.end_time),
+                fit.signal, fit.fit_percent
             );
         }
     }

@@ -15,7 +15,6 @@ use framework::Registry;
 use nalgebra::DMatrix;
 use std::ops::Range;
 use std::sync::atomic::{AtomicUsize, Ordering};
-use std::sync::{Condvar, Mutex};
 
 /// Forward-difference step, relative to an unknown's scale.
 const DIFFERENCE_STEP: f64 = 1e-6;
@@ -70,41 +69,12 @@ pub struct Problem<'a> {
     pub held: Vec<(String, f64)>,
     /// Per segment, the data rows it compares (indices into its run's rows).
     observations: Vec<Range<usize>>,
-    assemblies: Pool,
+    /// The mechanism at the scenario's initial state, copied afresh for every start it places:
+    /// a copy's history never reaches a rollout (Rapier poses a joint by moving it from where it
+    /// was, to rounding), so the rollouts' results do not depend on which thread made them.
+    assembly: Assembly,
     threads: usize,
     rollouts: AtomicUsize,
-}
-
-/// Assemblies lent to the threads that roll out, one at a time each.
-struct Pool {
-    free: Mutex<Vec<Assembly>>,
-    returned: Condvar,
-}
-
-impl Pool {
-    fn new(assemblies: Vec<Assembly>) -> Self {
-        Self {
-            free: Mutex::new(assemblies),
-            returned: Condvar::new(),
-        }
-    }
-
-    /// `job` on an assembly of the pool (waiting for one to be free).
-    fn with<T>(&self, job: impl FnOnce(&mut Assembly) -> T) -> T {
-        let mut free = self.free.lock().unwrap_or_else(|p| p.into_inner());
-        let mut assembly = loop {
-            match free.pop() {
-                Some(assembly) => break assembly,
-                None => free = self.returned.wait(free).unwrap_or_else(|p| p.into_inner()),
-            }
-        };
-        drop(free);
-        let result = job(&mut assembly);
-        let mut free = self.free.lock().unwrap_or_else(|p| p.into_inner());
-        free.push(assembly);
-        self.returned.notify_one();
-        result
-    }
 }
 
 /// The replayer of a scenario: its sensors made ideal apart from gain, bias and delay (noise
@@ -332,10 +302,8 @@ impl<'a> Problem<'a> {
             (noise_of(i), given || resolved)
         };
         let threads = thread_count(options.threads);
-        let mut assemblies: Vec<Assembly> = (0..=threads)
-            .map(|_| replayer.assembly())
-            .collect::<Result<_, _>>()?;
-        let assembly = &mut assemblies[0];
+        let template = replayer.assembly()?;
+        let assembly = &mut template.clone();
         let probes: Vec<[Vec<Probe>; 2]> = {
             let sensors = replayer.sensors();
             (traces.iter())
@@ -374,7 +342,7 @@ impl<'a> Problem<'a> {
             outputs,
             sigma,
             unknowns,
-            assemblies: Pool::new(assemblies),
+            assembly: template,
         })
     }
 
@@ -417,7 +385,7 @@ impl<'a> Problem<'a> {
                     }
                 }
                 let anchor = &placement.anchor;
-                let closed = self.assemblies.with(|a| a.initial_values(anchor, &x));
+                let closed = self.assembly.clone().initial_values(anchor, &x);
                 closed.map_err(|e| {
                     let segment = self.segments[s];
                     let trace = &self.traces[segment.run];

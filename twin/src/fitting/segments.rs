@@ -121,6 +121,9 @@ pub fn lay_out(
     };
     let period = replayer.shape.period;
     let segments = segments(traces, length, period)?;
+    // A run shorter than a segment is one segment of its own length.
+    let longest = (traces.iter().map(|t| t.samples as f64 * period)).fold(0.0, f64::max);
+    let length = if length > longest { 0.0 } else { length };
     let mut starts = vec![None; segments.len()];
     if unplaced.is_none() {
         for (run, trace) in traces.iter().enumerate() {

@@ -59,6 +59,7 @@ pub struct Placement {
 }
 
 /// The mechanism reduced to its independent coordinates, to place it where the data say.
+#[derive(Clone)]
 pub struct Assembly {
     reduced: ReducedDynamics,
     state: MechanismState,

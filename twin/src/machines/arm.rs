@@ -146,6 +146,9 @@ struct ProcessParams {
     deep_zone_depth: Option<f64>,
     /// Whether the arm's power stages are on (the default) or off.
     drive_power: DrivePower,
+    /// Whether the spindle's power stage is on (the default) or off: off, the spindle turns
+    /// free on its bearing (a machine whose spindle is idle while its axes move).
+    spindle_power: DrivePower,
 }
 
 /// The arm joints' power stages. `on`: the controller's current commands drive the motors —
@@ -175,6 +178,7 @@ pub struct Arm {
     /// Per arm joint its drive, `None` where the scenario makes it ideal.
     drives: Vec<Option<Drive>>,
     drive_power: DrivePower,
+    spindle_power: DrivePower,
     spindle: Spindle,
     contour: ContourPath,
     stock: Stock,
@@ -255,6 +259,7 @@ impl Arm {
             cutter_link,
             drives,
             drive_power: params.drive_power,
+            spindle_power: params.spindle_power,
             spindle,
             figures: Figures::new(motors, tolerance, contour.length()),
             contour,
@@ -496,9 +501,9 @@ impl Machine for Arm {
                 (DrivePower::Off, _) => 0.0,
             };
         }
-        self.spindle_torque = match self.drive_power {
-            DrivePower::On => self.spindle.step(dt, self.spindle_speed),
-            DrivePower::Off => 0.0,
+        self.spindle_torque = match (self.drive_power, self.spindle_power) {
+            (DrivePower::On, DrivePower::On) => self.spindle.step(dt, self.spindle_speed),
+            _ => 0.0,
         };
     }
 

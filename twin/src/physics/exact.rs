@@ -33,6 +33,7 @@ pub(super) struct ExactSettings {
     pub substeps: usize,
 }
 
+#[derive(Clone)]
 pub(super) struct ExactEngine {
     pub(super) model: Model,
     pub(super) rapier: RapierModel,
@@ -51,6 +52,7 @@ pub(super) struct ExactEngine {
 }
 
 /// RK4 workspace.
+#[derive(Clone)]
 struct Stage {
     kin: Kinematics,
     q: Vec<f64>,

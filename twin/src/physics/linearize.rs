@@ -33,6 +33,7 @@ const CONTINUATION_STEP: f64 = 0.05;
 const REDUNDANT_PIVOT: f64 = 1e-9;
 
 /// The mechanism at an operating point, reduced to its independent coordinates.
+#[derive(Clone)]
 pub struct ReducedDynamics {
     engine: ExactEngine,
     gravity: [f64; 2],

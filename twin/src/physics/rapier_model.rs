@@ -8,6 +8,7 @@ use super::shapes::to_parry;
 use crate::mechanism::{Inertial, JointMotion, Mechanism, Pose2};
 use rapier2d_f64::prelude::*;
 
+#[derive(Clone)]
 pub(super) struct RapierModel {
     bodies: RigidBodySet,
     multibodies: MultibodyJointSet,
