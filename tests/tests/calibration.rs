@@ -86,7 +86,13 @@ fn estimate(result: &Calibration, key: &str) -> f64 {
 fn replaying_its_own_run_reproduces_it() {
     let dir = folder("replay");
     let data = record(whitworth(2.0), &dir.join("run.csv"));
-    let comparison = compare(&whitworth(2.0), &controllers::builtin(), &data, &CalibrationOptions::default()).unwrap();
+    let comparison = compare(
+        &whitworth(2.0),
+        &controllers::builtin(),
+        &data,
+        &CalibrationOptions::default(),
+    )
+    .unwrap();
     assert!(!comparison.signals.is_empty());
     for fit in &comparison.signals {
         assert!(
@@ -506,16 +512,27 @@ fn an_open_loop_replay_needs_every_command_and_a_map_renames_a_log() {
     std::fs::write(&missing, without).unwrap();
     let registry = controllers::builtin();
     let data = RunData::read(&missing, &[]).unwrap();
-    let message = compare(&whitworth(0.5), &registry, &data, &CalibrationOptions::default())
-        .unwrap_err()
-        .to_string();
+    let message = compare(
+        &whitworth(0.5),
+        &registry,
+        &data,
+        &CalibrationOptions::default(),
+    )
+    .unwrap_err()
+    .to_string();
     assert!(
         message.contains("no column effort.crank [N·m]"),
         "{message}"
     );
     let map = [("motor".to_string(), "effort.crank".to_string())];
     let data = RunData::read(&renamed, &map).unwrap();
-    let comparison = compare(&whitworth(0.5), &registry, &data, &CalibrationOptions::default()).unwrap();
+    let comparison = compare(
+        &whitworth(0.5),
+        &registry,
+        &data,
+        &CalibrationOptions::default(),
+    )
+    .unwrap();
     assert!(comparison.signals.iter().all(|s| s.fit_percent > 99.999));
 }
 
@@ -557,4 +574,301 @@ fn a_parameter_the_run_hardly_excites_is_warned_of() {
     let warned = (result.warnings.iter())
         .any(|w| w.contains("urdf.link.block.izz is poorly determined: its 95 % interval"));
     assert!(warned, "{:?} {:?}", result.warnings, result.estimates);
+}
+
+/// A copy of the CSV `from` keeping `columns` (and `time`) and the rows `keep` says, each kept
+/// column with seeded Gaussian noise of its σ in `noise` (none for the others).
+fn logged(
+    from: &Path,
+    to: &Path,
+    columns: &[&str],
+    noise: &[(&str, f64)],
+    keep: impl Fn(usize) -> bool,
+) -> RunData {
+    let text = std::fs::read_to_string(from).unwrap();
+    let mut lines = text.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let name = |h: &str| h.split(" [").next().unwrap().to_string();
+    let kept: Vec<usize> = (0..header.len())
+        .filter(|&c| c == 0 || columns.contains(&name(header[c]).as_str()))
+        .collect();
+    let sigma: Vec<f64> = (kept.iter())
+        .map(|&c| (noise.iter().find(|(n, _)| *n == name(header[c]))).map_or(0.0, |(_, s)| *s))
+        .collect();
+    let mut state = 0x2545_F491_4F6C_DD1D_u64;
+    let mut uniform = move || {
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        (state >> 11) as f64 / (1u64 << 53) as f64
+    };
+    let mut out = kept
+        .iter()
+        .map(|&c| header[c])
+        .collect::<Vec<_>>()
+        .join(",")
+        + "\n";
+    for (r, line) in lines.enumerate() {
+        let cells: Vec<f64> = line.split(',').map(|v| v.parse().unwrap()).collect();
+        let values: Vec<String> = (kept.iter().zip(&sigma))
+            .map(|(&c, &s)| {
+                let (u1, u2) = (uniform().max(f64::MIN_POSITIVE), uniform());
+                let normal = (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos();
+                (cells[c] + s * normal).to_string()
+            })
+            .collect();
+        if keep(r) {
+            out += &(values.join(",") + "\n");
+        }
+    }
+    std::fs::write(to, out).unwrap();
+    RunData::read(to, &[]).unwrap()
+}
+
+/// The noise of the shaper's logged columns: σ 1e-4 rad, 1e-2 rad/s, 1e-5 m.
+const LOGGED_NOISE: [(&str, f64); 3] = [
+    ("crank.position", 1e-4),
+    ("crank.velocity", 1e-2),
+    ("ram.position", 1e-5),
+];
+
+fn logged_options(keys: &[&str]) -> CalibrationOptions {
+    CalibrationOptions {
+        parameters: fit(keys),
+        noise: LOGGED_NOISE
+            .map(|(s, sigma)| (s.to_string(), sigma))
+            .to_vec(),
+        ..CalibrationOptions::default()
+    }
+}
+
+/// The twin's own shaper, its log cut to the columns a shaper logs (torque with the encoder and
+/// tachometer, or with the encoder and the ram's scale, or with the ram's scale alone), noise
+/// added on logging, with a tenth of its rows dropped, or logged every 10 ms: the hidden values
+/// within 1e-3, intervals covering them, the verdict `fits`.
+#[test]
+fn the_twins_own_runs_cut_to_what_a_shaper_logs_return_the_truth() {
+    let dir = folder("columns");
+    let truth = [
+        ("urdf.link.ram.mass", 6.0),
+        ("urdf.joint.crank.damping", 0.3),
+    ];
+    let full = dir.join("full.csv");
+    record(hide(whitworth(5.0), &truth), &full);
+    let options = logged_options(&truth.map(|(key, _)| key));
+    let cases: [(&str, &[&str], Box<dyn Fn(usize) -> bool>); 5] = [
+        (
+            "tachometer",
+            &["crank.position", "crank.velocity"],
+            Box::new(|_| true),
+        ),
+        (
+            "ram",
+            &["crank.position", "ram.position"],
+            Box::new(|_| true),
+        ),
+        ("ram alone", &["ram.position"], Box::new(|_| true)),
+        (
+            "rows dropped",
+            &["crank.position", "ram.position"],
+            Box::new(|r| r % 10 != 7),
+        ),
+        (
+            "100 Hz",
+            &["crank.position", "ram.position"],
+            Box::new(|r| r % 10 == 0),
+        ),
+    ];
+    for (case, columns, keep) in cases {
+        let mut all = vec!["effort.crank"];
+        all.extend(columns);
+        let data = logged(
+            &full,
+            &dir.join(format!("{case}.csv")),
+            &all,
+            &LOGGED_NOISE,
+            keep,
+        );
+        let result = run_calibration(&whitworth(5.0), &[data], &[], &options).unwrap();
+        println!("{case}: {}", result.verdict.line());
+        assert!(result.verdict.fits, "{case}: {:?}", result.verdict);
+        assert!(result.segments > 1, "{case}: {} segments", result.segments);
+        for (key, value) in truth {
+            let e = result.estimates.iter().find(|e| e.key == key).unwrap();
+            assert!(
+                ((e.estimate - value) / value).abs() < 1e-3,
+                "{case}: {key} = {}",
+                e.estimate
+            );
+            assert!(
+                e.interval[0] <= value && value <= e.interval[1],
+                "{case}: {key} {:?} misses {value}",
+                e.interval
+            );
+        }
+    }
+}
+
+/// A controller that acts on noisy sensors commands noise too; where the logger drops rows,
+/// those commands are lost, and the replay's input is not the machine's. The calibration does
+/// not claim a fit it does not have: its verdict says `does not fit`, its intervals widened.
+#[test]
+fn lost_commands_of_a_noisy_controller_are_not_passed_off_as_a_fit() {
+    let dir = folder("lost-commands");
+    let truth = [
+        ("urdf.link.ram.mass", 6.0),
+        ("urdf.joint.crank.damping", 0.3),
+    ];
+    let mut builder = hide(whitworth(5.0), &truth).seed(11);
+    for (signal, sigma) in LOGGED_NOISE {
+        builder = builder
+            .set(&format!("sensors.\"{signal}\".noise"), sigma)
+            .unwrap();
+    }
+    let full = dir.join("full.csv");
+    record(builder, &full);
+    let columns = ["effort.crank", "crank.position", "ram.position"];
+    let data = logged(&full, &dir.join("dropped.csv"), &columns, &[], |r| {
+        r % 10 != 7
+    });
+    let options = logged_options(&truth.map(|(key, _)| key));
+    let result = run_calibration(&whitworth(5.0), &[data], &[], &options).unwrap();
+    println!("{}", result.verdict.line());
+    assert!(!result.verdict.fits, "{:?}", result.verdict);
+    assert!(result.estimates.iter().all(|e| e.widened));
+}
+
+/// The twin's own unmodified run, compared by default (1 s replays from start states the data
+/// give): at least 99 % on every signal; the whole run replayed once (`segment` 0) from the same
+/// start is said to be so.
+#[test]
+fn compare_of_the_twins_own_run_is_at_least_99_percent_on_every_signal() {
+    let dir = folder("own-compare");
+    let builder = Scenario::builtin("whitworth-crank-pi").unwrap();
+    let data = record(builder.clone(), &dir.join("run.csv"));
+    let registry = controllers::builtin();
+    let comparison = compare(&builder, &registry, &data, &CalibrationOptions::default()).unwrap();
+    assert_eq!(comparison.segment, 1.0);
+    assert!(comparison
+        .replays()
+        .starts_with("1 s replays (10 segments)"));
+    for fit in &comparison.signals {
+        assert!(
+            fit.fit_percent >= 99.0,
+            "{}: {}",
+            fit.signal,
+            fit.fit_percent
+        );
+    }
+    assert_eq!(comparison.segments.len(), 10);
+    let whole = CalibrationOptions {
+        segment: Some(0.0),
+        ..CalibrationOptions::default()
+    };
+    let comparison = compare(&builder, &registry, &data, &whole).unwrap();
+    assert!(comparison
+        .replays()
+        .starts_with("one replay of the whole run"));
+}
+
+/// `compare` of the calibrated values gives the fit % a calibration reports after its fit, and
+/// of the start values, the one it reports before.
+#[test]
+fn compare_and_calibrate_report_the_same_fit_for_the_same_values() {
+    let dir = folder("same-fit");
+    let truth = [
+        ("urdf.link.ram.mass", 6.0),
+        ("urdf.joint.crank.damping", 0.3),
+    ];
+    let data = record(noisy_whitworth(3.0, 5, &truth), &dir.join("run.csv"));
+    let options = noisy_options(&truth.map(|(key, _)| key));
+    let result = run_calibration(&whitworth(3.0), &[data.clone()], &[], &options).unwrap();
+    let registry = controllers::builtin();
+    let compared = |builder: &ScenarioBuilder| {
+        let options = CalibrationOptions {
+            signals: options.signals.clone(),
+            ..CalibrationOptions::default()
+        };
+        compare(builder, &registry, &data, &options)
+            .unwrap()
+            .signals
+    };
+    let mut calibrated = whitworth(3.0);
+    for e in &result.estimates {
+        calibrated = calibrated.set(&e.key, e.estimate).unwrap();
+    }
+    for (fits, report) in [
+        (compared(&calibrated), &result.runs[0].after),
+        (compared(&whitworth(3.0)), &result.runs[0].before),
+    ] {
+        for (compare, calibrate) in fits.iter().zip(report) {
+            assert_eq!(compare.signal, calibrate.signal);
+            assert!(
+                (compare.fit_percent - calibrate.fit_percent).abs() < 0.01,
+                "{}: compare {} calibrate {}",
+                compare.signal,
+                compare.fit_percent,
+                calibrate.fit_percent
+            );
+        }
+    }
+}
+
+/// Where the logged positions cannot place the mechanism, the runs are replayed whole and a
+/// note says why; an asked segment length is refused, naming what to log.
+#[test]
+fn no_segments_without_the_positions_that_place_the_mechanism_and_a_note_says_so() {
+    let dir = folder("no-segments");
+    let builder = Scenario::builtin("platform-path").unwrap().duration(2.0);
+    let data = record(builder.clone(), &dir.join("run.csv"));
+    let options = CalibrationOptions {
+        parameters: fit(&["urdf.link.chassis.mass"]),
+        ..CalibrationOptions::default()
+    };
+    let result = run_calibration(&builder, &[data.clone()], &[], &options).unwrap();
+    assert_eq!(result.segments, 1);
+    assert!(
+        result
+            .notes
+            .iter()
+            .any(|n| n.contains("replayed whole") && n.contains("log them")),
+        "{:?}",
+        result.notes
+    );
+    let forced = CalibrationOptions {
+        segment: Some(0.5),
+        ..options
+    };
+    let message = run_calibration(&builder, &[data], &[], &forced)
+        .err()
+        .map(|e| e.to_string())
+        .unwrap_or_default();
+    assert!(
+        message.contains("--segment 0.5") && message.contains("--segment 0"),
+        "{message}"
+    );
+}
+
+/// An estimate that ends at its bound is said to sit there, not to be wanted beyond it.
+#[test]
+fn a_parameter_at_its_bound_is_not_said_to_be_wanted_beyond_it() {
+    let dir = folder("bound");
+    let data = record(whitworth(1.0), &dir.join("run.csv"));
+    let options = CalibrationOptions {
+        parameters: vec![FitParameter {
+            key: "urdf.joint.crank.damping".into(),
+            start: Some(0.1),
+            bounds: Some([0.0, 10.0]),
+            per_run: false,
+        }],
+        ..CalibrationOptions::default()
+    };
+    let result = run_calibration(&whitworth(1.0), &[data], &[], &options).unwrap();
+    let warning = (result.warnings.iter())
+        .find(|w| w.contains("bound"))
+        .cloned()
+        .unwrap_or_default();
+    assert!(result.estimates[0].at_bound, "{:?}", result.estimates);
+    assert!(!warning.contains("want it beyond"), "{warning}");
+    assert!(warning.contains("cannot tell"), "{warning}");
 }

@@ -283,8 +283,16 @@ impl Machine {
                 self.name
             );
         }
-        assert!(result.verdict.fits, "{} {case}: {:?}", self.name, result.verdict);
-        assert!(result.converged, "{} {case}: the solve did not converge", self.name);
+        assert!(
+            result.verdict.fits,
+            "{} {case}: {:?}",
+            self.name, result.verdict
+        );
+        assert!(
+            result.converged,
+            "{} {case}: the solve did not converge",
+            self.name
+        );
     }
 }
 
@@ -306,7 +314,12 @@ fn logged(machine: &Machine, clean: &Path, columns: &[&str], drop: f64, seed: u6
         .collect();
     let mut random = Gaussian::new(seed);
     let rows: Vec<&str> = lines.collect();
-    let mut out = kept.iter().map(|&c| header[c]).collect::<Vec<_>>().join(",") + "\n";
+    let mut out = kept
+        .iter()
+        .map(|&c| header[c])
+        .collect::<Vec<_>>()
+        .join(",")
+        + "\n";
     for (r, row) in rows.iter().enumerate() {
         let dropped = random.uniform() < drop;
         let cells: Vec<f64> = row.split(',').map(|v| v.parse().unwrap()).collect();
@@ -437,7 +450,12 @@ fn coverage(machine: &Machine, clean: &Path, columns: &[&str]) {
     for seed in 0..SEEDS {
         let data = logged(machine, clean, columns, 0.0, 100 + seed);
         let result = machine.calibrate(&data, &[]);
-        assert!(result.verdict.fits, "{} seed {seed}: {}", machine.name, result.verdict.line());
+        assert!(
+            result.verdict.fits,
+            "{} seed {seed}: {}",
+            machine.name,
+            result.verdict.line()
+        );
         for (k, (_, _, z, hit)) in machine.errors(&result).into_iter().enumerate() {
             covered[k] += hit as usize;
             z_squares[k] += z * z;
@@ -446,14 +464,21 @@ fn coverage(machine: &Machine, clean: &Path, columns: &[&str]) {
     }
     for (k, (key, _)) in machine.hidden.iter().enumerate() {
         let rms = (z_squares[k] / SEEDS as f64).sqrt();
-        println!("{} {key}: covered {}/{SEEDS}, z RMS {rms:.2}", machine.name, covered[k]);
+        println!(
+            "{} {key}: covered {}/{SEEDS}, z RMS {rms:.2}",
+            machine.name, covered[k]
+        );
         assert!(
             covered[k] as f64 >= 0.9 * SEEDS as f64,
             "{} {key}: the 95 % interval covered the truth {} times in {SEEDS}",
             machine.name,
             covered[k]
         );
-        assert!((0.6..=1.5).contains(&rms), "{} {key}: z RMS {rms:.2}", machine.name);
+        assert!(
+            (0.6..=1.5).contains(&rms),
+            "{} {key}: z RMS {rms:.2}",
+            machine.name
+        );
     }
 }
 

@@ -207,7 +207,10 @@ fn options(
 }
 
 /// The signals' noise σ: the table's, with `--noise NAME=SIGMA` on top.
-pub(crate) fn noise_levels(given: &[String], spec: &CalibrationSpec) -> Result<Vec<(String, f64)>, Failure> {
+pub(crate) fn noise_levels(
+    given: &[String],
+    spec: &CalibrationSpec,
+) -> Result<Vec<(String, f64)>, Failure> {
     let mut noise: Vec<(String, f64)> = spec.noise.clone().into_iter().collect();
     for entry in given {
         let context = format!("--noise {entry}");
@@ -274,7 +277,11 @@ fn report(result: &Calibration) -> String {
             e.interval[0],
             e.interval[1],
             if e.at_bound { "  at bound" } else { "" },
-            if e.widened { "  widened, not trusted" } else { "" }
+            if e.widened {
+                "  widened, not trusted"
+            } else {
+                ""
+            }
         );
     }
     let segments = match (result.segment, result.segments) {
@@ -284,7 +291,10 @@ fn report(result: &Calibration) -> String {
     };
     let states = match result.start_states {
         0 => "no start state fitted".to_string(),
-        n => format!("{n} start states fitted, in {}", result.coordinates.join(", ")),
+        n => format!(
+            "{n} start states fitted, in {}",
+            result.coordinates.join(", ")
+        ),
     };
     out += &format!(
         "{} iterations, {} rollouts, {segments} ({states}), σ̂² = {:.4}, solver {}\n",

@@ -99,7 +99,10 @@ pub fn segment_table(segments: &[SegmentFit]) -> String {
     };
     let score = |s: &SegmentFit| worst(s).map_or(f64::INFINITY, |f| f.fit_percent);
     let mut listed: Vec<&SegmentFit> = segments.iter().collect();
-    let mut out = format!("  per segment, the signal that fits worst ({} segments):\n", segments.len());
+    let mut out = format!(
+        "  per segment, the signal that fits worst ({} segments):\n",
+        segments.len()
+    );
     if listed.len() > SEGMENTS_LISTED {
         listed.sort_by(|a, b| score(a).total_cmp(&score(b)));
         listed.truncate(SEGMENTS_LISTED);
@@ -114,7 +117,8 @@ pub fn segment_table(segments: &[SegmentFit]) -> String {
             out += &format!(
                 "    {:>16}  {:<28} {:>9.3} %\n",
                 format!("{:.3}–{:.3} s", segment.start_time, segment.end_time),
-                fit.signal, fit.fit_percent
+                fit.signal,
+                fit.fit_percent
             );
         }
     }

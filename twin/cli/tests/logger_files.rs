@@ -70,7 +70,11 @@ fn logged_runs(dir: &Path) {
 /// The comparison's figures without the line that names the file.
 fn figures(stdout: &str) -> String {
     let named = |line: &&str| line.ends_with(".csv");
-    stdout.lines().filter(|l| !named(l)).collect::<Vec<_>>().join("\n")
+    stdout
+        .lines()
+        .filter(|l| !named(l))
+        .collect::<Vec<_>>()
+        .join("\n")
 }
 
 #[test]

@@ -15,7 +15,7 @@ use serde::Serialize;
 use serde_json::{json, Value};
 
 /// Most Levenberg–Marquardt iterations fitting start states alone.
-const STATE_ITERATIONS: usize = 20;
+const STATE_ITERATIONS: usize = 5;
 
 /// One signal measured and replayed, on the control-period grid.
 #[derive(Debug, Clone, PartialEq)]
@@ -130,7 +130,10 @@ pub(super) fn fit_states(
         if is_state(unknown) {
             states.push(unknown.clone());
         } else {
-            held.push((unknown.key.clone(), values.next().copied().unwrap_or(unknown.start)));
+            held.push((
+                unknown.key.clone(),
+                values.next().copied().unwrap_or(unknown.start),
+            ));
         }
     }
     let theta: Vec<f64> = states.iter().map(|u| u.start).collect();
@@ -140,7 +143,10 @@ pub(super) fn fit_states(
         true => Ok(theta),
         false => solve(problem, theta, 0, STATE_ITERATIONS, None, &mut |_| {}).map(|s| s.theta),
     };
-    let (held, states) = (std::mem::take(&mut problem.held), std::mem::take(&mut problem.unknowns));
+    let (held, states) = (
+        std::mem::take(&mut problem.held),
+        std::mem::take(&mut problem.unknowns),
+    );
     problem.unknowns = all;
     let solved = solved?;
     let (mut held, mut fitted) = (held.into_iter(), solved.into_iter().zip(states));
@@ -197,7 +203,8 @@ pub(super) fn replay(problem: &Problem, theta: &[f64]) -> Result<Vec<RunReplay>,
     for (run, series) in runs.iter_mut().zip(joined) {
         for (o, (measured, replayed, grid)) in series.into_iter().enumerate() {
             let (name, unit) = names(o);
-            run.signals.push(signal_fit(&name, &unit, &measured, &replayed));
+            run.signals
+                .push(signal_fit(&name, &unit, &measured, &replayed));
             run.overlays.push(Overlay {
                 signal: name,
                 unit,

@@ -147,7 +147,11 @@ mod tests {
             let t = at * period;
             assert!((fit.value - signal(t)).abs() < 1e-12, "{at}");
             let rate = 2.0 - 8.0 * t + 21.0 * t * t;
-            assert!((fit.rate - rate).abs() < 1e-9, "{at}: {} for {rate}", fit.rate);
+            assert!(
+                (fit.rate - rate).abs() < 1e-9,
+                "{at}: {} for {rate}",
+                fit.rate
+            );
             assert!(fit.rate_error > 0.0 && fit.value_error < 1e-4);
         }
     }

@@ -91,7 +91,11 @@ pub fn whiteness_of(pieces: &[&[f64]], lags: usize) -> Whiteness {
     let correlations: Vec<f64> = (1..=lags)
         .map(|lag| {
             let sum: f64 = (pieces.iter().filter(|p| p.len() > lag))
-                .map(|p| (p.iter().zip(&p[lag..])).map(|(a, b)| (a - mean) * (b - mean)).sum::<f64>())
+                .map(|p| {
+                    (p.iter().zip(&p[lag..]))
+                        .map(|(a, b)| (a - mean) * (b - mean))
+                        .sum::<f64>()
+                })
                 .sum();
             match variance > 0.0 {
                 true => sum / variance,
@@ -136,7 +140,13 @@ pub fn noise_level(values: &[f64]) -> f64 {
         let windows = values.windows(n);
         let count = windows.len().max(1) as f64;
         let sum: f64 = windows
-            .map(|w| w.iter().zip(coefficients).map(|(v, c)| v * c).sum::<f64>().powi(2))
+            .map(|w| {
+                w.iter()
+                    .zip(coefficients)
+                    .map(|(v, c)| v * c)
+                    .sum::<f64>()
+                    .powi(2)
+            })
             .sum();
         sum / count
     };
@@ -160,7 +170,13 @@ pub fn noise_resolved(values: &[f64]) -> bool {
         let windows = values.windows(coefficients.len());
         let count = windows.len().max(1) as f64;
         let sum: f64 = windows
-            .map(|w| w.iter().zip(coefficients).map(|(v, c)| v * c).sum::<f64>().powi(2))
+            .map(|w| {
+                w.iter()
+                    .zip(coefficients)
+                    .map(|(v, c)| v * c)
+                    .sum::<f64>()
+                    .powi(2)
+            })
             .sum();
         (sum / count).sqrt()
     };

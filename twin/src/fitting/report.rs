@@ -146,7 +146,12 @@ pub fn calibrate(
     }
     let runs = run_fits(&mut problem, &start, &solution.theta)?;
     let mut statistics = Statistics::of(&problem, &solution);
-    let verdict = judge(&problem, &solution.residuals, statistics.variance, &worst(&runs));
+    let verdict = judge(
+        &problem,
+        &solution.residuals,
+        statistics.variance,
+        &worst(&runs),
+    );
     if !verdict.fits {
         statistics.widen(&problem, &solution);
     }
@@ -203,7 +208,12 @@ fn checked(problem: &mut Problem) -> Result<(Linearised, Vec<String>), Calibrati
 fn fitted_coordinates(problem: &Problem) -> Vec<String> {
     let mut names: Vec<String> = Vec::new();
     for unknown in problem.unknowns.iter().filter(|u| u.coordinate.is_some()) {
-        let name = unknown.key.split('.').nth(1).unwrap_or_default().to_string();
+        let name = unknown
+            .key
+            .split('.')
+            .nth(1)
+            .unwrap_or_default()
+            .to_string();
         if !names.contains(&name) {
             names.push(name);
         }
@@ -458,7 +468,8 @@ impl Statistics {
                 }
             })
             .collect();
-        self.covariance = DMatrix::from_fn(p, p, |i, k| self.covariance[(i, k)] * factor[i] * factor[k]);
+        self.covariance =
+            DMatrix::from_fn(p, p, |i, k| self.covariance[(i, k)] * factor[i] * factor[k]);
     }
 
     /// The correlations among the parameters (not the start states).
@@ -553,7 +564,9 @@ fn run_fits(
 
 fn run_fit(trace: &Trace, before: RunReplay, after: RunReplay) -> RunFit {
     let overlays = (before.overlays.into_iter().zip(after.overlays))
-        .map(|(b, a): (Overlay, Overlay)| (a.signal, a.unit, [a.measured, b.simulated, a.simulated]))
+        .map(|(b, a): (Overlay, Overlay)| {
+            (a.signal, a.unit, [a.measured, b.simulated, a.simulated])
+        })
         .collect();
     RunFit {
         source: trace.source.clone(),

@@ -204,13 +204,19 @@ fn replay(
     placement: &Placement,
     setting: &Setting,
 ) -> Option<Vec<Vec<f64>>> {
-    let mut values = assembly.initial_values(&placement.anchor, &placement.x).ok()?;
+    let mut values = assembly
+        .initial_values(&placement.anchor, &placement.x)
+        .ok()?;
     values.extend(setting.parameters.iter().cloned());
     let simulated = (replayer.simulate(trace, segment, &values, setting.outputs)).ok()?;
     let weighted = (simulated.into_iter().zip(setting.sigma))
         .map(|(row, sigma)| row.into_iter().map(|v| v / sigma).collect::<Vec<f64>>())
         .collect::<Vec<_>>();
-    weighted.iter().flatten().all(|v| v.is_finite()).then_some(weighted)
+    weighted
+        .iter()
+        .flatten()
+        .all(|v| v.is_finite())
+        .then_some(weighted)
 }
 
 /// The weighted squared residual of a replay of `segment` from `placement` (infinite where the
@@ -321,7 +327,9 @@ fn drift_horizon(
         lead: 0,
     };
     let probe = |assembly: &mut Assembly, placement: &Placement| {
-        let mut values = assembly.initial_values(&placement.anchor, &placement.x).ok()?;
+        let mut values = assembly
+            .initial_values(&placement.anchor, &placement.x)
+            .ok()?;
         values.extend(setting.parameters.iter().cloned());
         replayer.simulate(trace, segment, &values, &outputs).ok()
     };

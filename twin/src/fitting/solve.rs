@@ -9,6 +9,9 @@ use serde::Serialize;
 
 /// Converged when an accepted step lowers the cost by less than this share of it…
 const COST_TOLERANCE: f64 = 1e-10;
+/// …or by less than this much in all (the cost is half the squared residuals in noise σ: a
+/// millionth of it moves the estimates by about a thousandth of their standard errors)…
+const COST_NEGLIGIBLE: f64 = 1e-6;
 /// …or moves no unknown by more than this share of its scale (a hundredth of the 1e-6 the
 /// noise-free tests ask of the estimates).
 const STEP_TOLERANCE: f64 = 1e-8;
@@ -117,7 +120,8 @@ pub fn solve(
         };
         progress(&record);
         iterations.push(record);
-        if decrease <= COST_TOLERANCE * current.max(f64::MIN_POSITIVE) || step <= STEP_TOLERANCE {
+        let negligible = decrease <= COST_NEGLIGIBLE.max(COST_TOLERANCE * current);
+        if negligible || step <= STEP_TOLERANCE {
             converged = true;
             break;
         }

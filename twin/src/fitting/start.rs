@@ -132,7 +132,10 @@ impl Assembly {
         let mut values = Vec::with_capacity(4 * self.names.len());
         for (j, name) in self.names.iter().enumerate() {
             if self.movable[j] {
-                let (q, v) = (self.state.joint_positions[j], self.state.joint_velocities[j]);
+                let (q, v) = (
+                    self.state.joint_positions[j],
+                    self.state.joint_velocities[j],
+                );
                 values.push((format!("initial.{name}.position"), q));
                 values.push((format!("initial.{name}.velocity"), v));
             }
@@ -303,7 +306,10 @@ impl Assembly {
             let state = self.place(anchor, &unit)?;
             column.copy_from_slice(&state.joint_velocities);
         }
-        let groups = [(&probes[0], position_rates, true), (&probes[1], velocities, false)];
+        let groups = [
+            (&probes[0], position_rates, true),
+            (&probes[1], velocities, false),
+        ];
         for (group, fits, rate) in groups {
             for (probe, fit) in group.iter().zip(fits) {
                 // A joint whose velocity is logged takes it from there, not from its positions.
@@ -356,7 +362,14 @@ fn local_fits(trace: &Trace, probes: &[Probe], at: usize) -> Option<Vec<LocalVal
             }
             let least = FIT_MIN_ROWS * row_spacing(&places).max(1.0);
             let most = (FIT_HALF_WIDTH / trace.period).max(least);
-            fit_adaptive(&places, values, at as f64, [least, most], p.sigma, trace.period)
+            fit_adaptive(
+                &places,
+                values,
+                at as f64,
+                [least, most],
+                p.sigma,
+                trace.period,
+            )
         })
         .collect()
 }
@@ -405,7 +418,14 @@ impl Assembly {
             if found.iter().any(|(_, p)| distance(&p.x, &x) < 1e-6) {
                 continue;
             }
-            found.push((misfit, Placement { sample: 0, x, anchor }));
+            found.push((
+                misfit,
+                Placement {
+                    sample: 0,
+                    x,
+                    anchor,
+                },
+            ));
         }
         let best = found.iter().map(|(m, _)| *m).fold(f64::INFINITY, f64::min);
         let mut kept: Vec<Placement> = (found.into_iter())
@@ -439,7 +459,11 @@ impl Assembly {
                 previous.clone_from(&x);
                 let readings = self.readings(&anchor, &x, positions).ok()?;
                 let terms = readings.iter().zip(targets).zip(positions);
-                Some(terms.map(|((y, t), p)| ((y - t) / p.sigma).powi(2)).sum::<f64>())
+                Some(
+                    terms
+                        .map(|((y, t), p)| ((y - t) / p.sigma).powi(2))
+                        .sum::<f64>(),
+                )
             });
             misfits.push((x, misfit.unwrap_or(f64::INFINITY)));
         }

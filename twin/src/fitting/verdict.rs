@@ -142,7 +142,8 @@ fn advice(problem: &Problem, reasons: &[String]) -> Vec<String> {
             problem.length / 2.0
         ));
     } else {
-        advice.push("segments (--segment 1), logging the positions that place the mechanism".into());
+        advice
+            .push("segments (--segment 1), logging the positions that place the mechanism".into());
     }
     if !problem.replayer.closed_loop {
         advice.push("--closed-loop, where the logged commands are not what reached the machine (a drive's own loop, a logger slower than the control)".into());
@@ -260,7 +261,9 @@ pub fn sandwich(
         offset += segment.len();
     }
     let covariance = &bread * meat * &bread;
-    Some(DMatrix::from_fn(p, p, |i, k| covariance[(i, k)] * scale[i] * scale[k]))
+    Some(DMatrix::from_fn(p, p, |i, k| {
+        covariance[(i, k)] * scale[i] * scale[k]
+    }))
 }
 
 /// Σ_t s_t s_tᵀ + Σ_lag w_lag Σ_t (s_t s_{t−lag}ᵀ + s_{t−lag} s_tᵀ) of scores `n × m` (row-major),
@@ -271,7 +274,10 @@ fn long_run(scores: &[f64], m: usize, bandwidth: usize) -> Vec<f64> {
     for lag in 0..=bandwidth.min(n.saturating_sub(1)) {
         let weight = 1.0 - lag as f64 / (bandwidth + 1) as f64;
         for t in lag..n {
-            let (now, then) = (&scores[t * m..(t + 1) * m], &scores[(t - lag) * m..(t - lag + 1) * m]);
+            let (now, then) = (
+                &scores[t * m..(t + 1) * m],
+                &scores[(t - lag) * m..(t - lag + 1) * m],
+            );
             for a in 0..m {
                 for b in 0..m {
                     block[a * m + b] += match lag {

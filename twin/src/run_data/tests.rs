@@ -289,7 +289,10 @@ fn irregular_rows_are_resampled_linearly_and_commands_held_or_bridged_across_a_g
     );
     // The rows' own places on the grid, where a fit compares.
     assert!(close(trace.rows.as_deref().unwrap(), &[0.0, 1.5, 2.0, 4.1]));
-    assert!(close(trace.logged[0].as_deref().unwrap(), &[0.0, 3.0, 4.0, 8.2]));
+    assert!(close(
+        trace.logged[0].as_deref().unwrap(),
+        &[0.0, 3.0, 4.0, 8.2]
+    ));
     let rate = trace.rate;
     assert!((rate.mean_period - 0.0041 / 3.0).abs() < 1e-15);
     assert!((rate.min_period - 0.0005).abs() < 1e-15);
