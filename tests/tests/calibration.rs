@@ -656,7 +656,8 @@ fn the_twins_own_runs_cut_to_what_a_shaper_logs_return_the_truth() {
     let full = dir.join("full.csv");
     record(hide(whitworth(5.0), &truth), &full);
     let options = logged_options(&truth.map(|(key, _)| key));
-    let cases: [(&str, &[&str], Box<dyn Fn(usize) -> bool>); 5] = [
+    type Case<'a> = (&'a str, &'a [&'a str], Box<dyn Fn(usize) -> bool>);
+    let cases: [Case; 5] = [
         (
             "tachometer",
             &["crank.position", "crank.velocity"],
@@ -782,7 +783,8 @@ fn compare_and_calibrate_report_the_same_fit_for_the_same_values() {
     ];
     let data = record(noisy_whitworth(3.0, 5, &truth), &dir.join("run.csv"));
     let options = noisy_options(&truth.map(|(key, _)| key));
-    let result = run_calibration(&whitworth(3.0), &[data.clone()], &[], &options).unwrap();
+    let result =
+        run_calibration(&whitworth(3.0), std::slice::from_ref(&data), &[], &options).unwrap();
     let registry = controllers::builtin();
     let compared = |builder: &ScenarioBuilder| {
         let options = CalibrationOptions {
@@ -825,7 +827,7 @@ fn no_segments_without_the_positions_that_place_the_mechanism_and_a_note_says_so
         parameters: fit(&["urdf.link.chassis.mass"]),
         ..CalibrationOptions::default()
     };
-    let result = run_calibration(&builder, &[data.clone()], &[], &options).unwrap();
+    let result = run_calibration(&builder, std::slice::from_ref(&data), &[], &options).unwrap();
     assert_eq!(result.segments, 1);
     assert!(
         result

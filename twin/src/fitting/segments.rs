@@ -57,39 +57,7 @@ pub fn lay_out(
     traces: &[Trace],
     setting: &Setting,
 ) -> Result<Layout, CalibrationError> {
-    let names = assembly.coordinate_names();
-    let mut firsts = Vec::with_capacity(traces.len());
-    let mut unplaced: Option<String> = None;
-    for (run, trace) in traces.iter().enumerate() {
-        match first_placement(replayer, assembly, trace, run, setting) {
-            Ok(first) => firsts.push(Some(first)),
-            Err(reason) => {
-                unplaced.get_or_insert(format!("{}: {reason}", trace.source));
-                firsts.push(None);
-            }
-        }
-    }
-    let mut placed = vec![firsts.iter().all(Option::is_some); names.len()];
-    if unplaced.is_none() {
-        let all: Vec<Placement> = firsts.iter().flatten().cloned().collect();
-        let positions: Vec<Probe> = setting.probes.iter().flat_map(|p| p[0].clone()).collect();
-        placed = assembly.observed(&positions, &all);
-        let missing: Vec<&str> = (names.iter().zip(&placed))
-            .filter(|(_, p)| !**p)
-            .map(|(n, _)| n.as_str())
-            .collect();
-        if !missing.is_empty() && !idle(replayer, assembly, traces, &firsts, &placed, setting)? {
-            unplaced = Some(format!(
-                "the logged positions do not fix {} (log {}, or a joint the loops tie to it)",
-                missing.join(", "),
-                missing
-                    .iter()
-                    .map(|m| format!("{m}.position"))
-                    .collect::<Vec<_>>()
-                    .join(", ")
-            ));
-        }
-    }
+    let (firsts, placed, unplaced) = firsts(replayer, assembly, traces, setting)?;
     let mut notes = Vec::new();
     let length = match (setting.asked, &unplaced) {
         (Some(s), Some(reason)) if s != 0.0 => {
@@ -146,6 +114,49 @@ pub fn lay_out(
         placed,
         notes,
     })
+}
+
+/// Where each run starts (`None` where its data cannot place it), which coordinates the logged
+/// positions place, and why the runs cannot be cut into segments, if they cannot.
+type Firsts = (Vec<Option<Placement>>, Vec<bool>, Option<String>);
+
+fn firsts(
+    replayer: &Replayer,
+    assembly: &mut Assembly,
+    traces: &[Trace],
+    setting: &Setting,
+) -> Result<Firsts, CalibrationError> {
+    let names = assembly.coordinate_names();
+    let mut firsts = Vec::with_capacity(traces.len());
+    let mut unplaced: Option<String> = None;
+    for (run, trace) in traces.iter().enumerate() {
+        match first_placement(replayer, assembly, trace, run, setting) {
+            Ok(first) => firsts.push(Some(first)),
+            Err(reason) => {
+                unplaced.get_or_insert(format!("{}: {reason}", trace.source));
+                firsts.push(None);
+            }
+        }
+    }
+    if unplaced.is_some() {
+        return Ok((firsts, vec![false; names.len()], unplaced));
+    }
+    let all: Vec<Placement> = firsts.iter().flatten().cloned().collect();
+    let positions: Vec<Probe> = setting.probes.iter().flat_map(|p| p[0].clone()).collect();
+    let placed = assembly.observed(&positions, &all);
+    let missing: Vec<&str> = (names.iter().zip(&placed))
+        .filter(|(_, p)| !**p)
+        .map(|(n, _)| n.as_str())
+        .collect();
+    if !missing.is_empty() && !idle(replayer, assembly, traces, &firsts, &placed, setting)? {
+        let logs: Vec<String> = missing.iter().map(|m| format!("{m}.position")).collect();
+        unplaced = Some(format!(
+            "the logged positions do not fix {} (log {}, or a joint the loops tie to it)",
+            missing.join(", "),
+            logs.join(", ")
+        ));
+    }
+    Ok((firsts, placed, unplaced))
 }
 
 fn placement_error(trace: &Trace, reason: String) -> CalibrationError {
@@ -346,8 +357,10 @@ fn drift_horizon(
         let mut moved = placement.clone();
         moved.x[c] += step;
         let other = probe(assembly, &moved)?;
-        let drifted = (0..horizon.unwrap_or(len))
-            .find(|&k| !((other[c][k] - series[k]).abs() <= DRIFT_GROWTH * step));
+        let drifted = (0..horizon.unwrap_or(len)).find(|&k| {
+            let apart = (other[c][k] - series[k]).abs();
+            apart.is_nan() || apart > DRIFT_GROWTH * step
+        });
         horizon = drifted.or(horizon);
     }
     Some(horizon.map_or(DEFAULT_SEGMENT, |k| k as f64 * trace.period))

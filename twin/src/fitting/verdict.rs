@@ -107,7 +107,7 @@ pub fn judge(
         });
     }
     let mut reasons = Vec::new();
-    if !(variance <= VARIANCE_FITS) {
+    if variance.is_nan() || variance > VARIANCE_FITS {
         reasons.push(format!(
             "σ̂² = {variance:.4e}: the residuals are {:.3}× the signals' noise σ (a fit leaves them at 1×)",
             variance.sqrt()
