@@ -106,6 +106,10 @@ pub fn run(args: &CalibrateArgs, registry: &Registry) -> Result<ExitCode, Failur
             "give a measured run: --data RUN (or [calibration] data)",
         ));
     }
+    if let Some(out) = &args.out_dir {
+        // Before the fit: a folder that cannot be made is refused now, not after minutes.
+        std::fs::create_dir_all(out).map_err(|e| format!("--out-dir {}: {e}", out.display()))?;
+    }
     let mut progress = |step: &twin::calibration::Iteration| {
         eprintln!(
             "start {} iteration {:>3}: cost {:.6e}, step {:.2e}, damping {:.1e}",
@@ -199,7 +203,10 @@ fn options(
         segment: args.segment.or(spec.segment),
         states: StartStates::parse(states),
         closed_loop: args.closed_loop || spec.closed_loop,
-        starts: args.starts.or(spec.starts).unwrap_or(1),
+        starts: match args.starts.or(spec.starts).unwrap_or(1) {
+            0 => return Err(Failure::usage("--starts 0: give at least 1 start")),
+            n => n,
+        },
         max_iterations: args.max_iterations,
         threads: args.threads,
     };
@@ -212,14 +219,21 @@ pub(crate) fn noise_levels(
     spec: &CalibrationSpec,
 ) -> Result<Vec<(String, f64)>, Failure> {
     let mut noise: Vec<(String, f64)> = spec.noise.clone().into_iter().collect();
+    if let Some((name, sigma)) = noise.iter().find(|(_, s)| !(s.is_finite() && *s > 0.0)) {
+        return Err(Failure::usage(format!(
+            "[calibration.noise] \"{name}\" = {sigma}: σ must be a finite number > 0, in the signal's SI unit (e.g. 1e-4)"
+        )));
+    }
     for entry in given {
         let context = format!("--noise {entry}");
         let (name, sigma) = entry
             .split_once('=')
             .ok_or_else(|| Failure::usage(format!("{context}: expected NAME=SIGMA")))?;
         let sigma = number(&context, sigma)?;
-        if sigma <= 0.0 {
-            return Err(Failure::usage(format!("{context}: σ must be > 0")));
+        if !(sigma.is_finite() && sigma > 0.0) {
+            return Err(Failure::usage(format!(
+                "{context}: σ must be a finite number > 0, in the signal's SI unit (e.g. {name}=1e-4)"
+            )));
         }
         noise.retain(|(n, _)| n != name);
         noise.push((name.to_string(), sigma));

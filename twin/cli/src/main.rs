@@ -7,6 +7,7 @@ use twin_cli::command_line::{dispatch, Cli};
 use twin_cli::usage::usage_error;
 
 fn main() -> ExitCode {
+    quiet_broken_pipe();
     let cli = match Cli::try_parse() {
         Ok(cli) => cli,
         Err(error) => return usage_error(&error),
@@ -15,4 +16,14 @@ fn main() -> ExitCode {
         eprintln!("error: {}", failure.message);
         ExitCode::from(failure.code)
     })
+}
+
+/// A reader that stops early (`twin compare … | head`) ends `twin` quietly, as it ends any Unix
+/// tool: SIGPIPE back to its default action, which Rust's runtime sets aside.
+fn quiet_broken_pipe() {
+    #[cfg(unix)]
+    // SAFETY: setting a signal's disposition to SIG_DFL before any thread starts.
+    unsafe {
+        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
+    }
 }

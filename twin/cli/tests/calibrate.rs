@@ -6,6 +6,7 @@ mod common;
 
 use common::{scratch, twin};
 use std::path::Path;
+use std::process::Command;
 
 fn ok(output: &std::process::Output) -> String {
     let text = String::from_utf8_lossy(&output.stdout).to_string();
@@ -143,7 +144,11 @@ fn malformed_options_are_usage_errors_naming_the_option() {
                 "--noise",
                 "crank.position=-1",
             ],
-            "σ must be > 0",
+            "σ must be a finite number > 0",
+        ),
+        (
+            vec!["--fit", "urdf.link.ram.mass", "--starts", "0"],
+            "give at least 1 start",
         ),
         (vec![], "give a parameter to fit"),
     ] {
@@ -171,4 +176,93 @@ fn malformed_options_are_usage_errors_naming_the_option() {
     let stderr = String::from_utf8_lossy(&output.stderr);
     assert_eq!(output.status.code(), Some(1), "{stderr}");
     assert!(stderr.contains("nowhere.csv"), "{stderr}");
+}
+
+/// What the bad-input corpus found, each ended with its reason and before any work: a noise σ
+/// whose residuals overflow, a noise for a signal the scenario lacks, a table's σ that is not a
+/// positive number, a FIFO as the data, an output folder that is a file; and a reader that stops
+/// early ends `twin compare` quietly.
+#[test]
+fn bad_inputs_end_with_their_reason_before_any_work() {
+    let dir = scratch("calibrate", "bad-inputs");
+    logged_run(&dir);
+    let fit = [
+        "calibrate",
+        "whitworth-crank-pi",
+        "--data",
+        "run.csv",
+        "--fit",
+        "urdf.link.ram.mass",
+    ];
+    let refused = |extra: &[&str], code: i32, expected: &str| {
+        let mut all = fit.to_vec();
+        all.extend(extra);
+        let output = twin(&all, &dir);
+        let stderr = String::from_utf8_lossy(&output.stderr);
+        assert_eq!(output.status.code(), Some(code), "{extra:?}: {stderr}");
+        assert!(stderr.contains(expected), "{extra:?}: {stderr}");
+        assert!(
+            !stderr.contains("iteration"),
+            "{extra:?}: refused after work: {stderr}"
+        );
+    };
+    refused(
+        &["--noise", "crank.position=1e-300"],
+        1,
+        "not finite at the start",
+    );
+    refused(
+        &["--noise", "nosuch=1e-3"],
+        1,
+        "--noise nosuch: no such signal",
+    );
+    std::fs::write(dir.join("afile"), "x").unwrap();
+    refused(&["--out-dir", "afile"], 1, "--out-dir afile");
+    let text = twin::BUILTIN_SCENARIOS
+        .iter()
+        .find(|(name, _)| *name == "whitworth-crank-pi")
+        .map(|(_, text)| text.to_string())
+        .unwrap();
+    let table = "\n[calibration.noise]\n\"crank.position\" = -1.0\n";
+    std::fs::write(dir.join("negative.toml"), format!("{text}{table}")).unwrap();
+    let negative = [
+        "calibrate",
+        "negative.toml",
+        "--data",
+        "run.csv",
+        "--fit",
+        "urdf.link.ram.mass",
+    ];
+    let output = twin(&negative, &dir);
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert_eq!(output.status.code(), Some(2), "{stderr}");
+    assert!(stderr.contains("[calibration.noise]"), "{stderr}");
+    #[cfg(unix)]
+    {
+        let fifo = dir.join("fifo.csv");
+        let made = Command::new("mkfifo").arg(&fifo).status();
+        if made.is_ok_and(|s| s.success()) {
+            let output = twin(
+                &["compare", "whitworth-crank-pi", "--data", "fifo.csv"],
+                &dir,
+            );
+            let stderr = String::from_utf8_lossy(&output.stderr);
+            assert_eq!(output.status.code(), Some(1), "{stderr}");
+            assert!(stderr.contains("not a regular file"), "{stderr}");
+        }
+    }
+    let piped = Command::new("sh")
+        .arg("-c")
+        .arg(format!(
+            "{} compare whitworth-crank-pi --data run.csv | head -1",
+            env!("CARGO_BIN_EXE_twin")
+        ))
+        .current_dir(&dir)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&piped.stderr);
+    assert!(
+        !stderr.contains("panicked") && !stderr.contains("Broken pipe"),
+        "{stderr}"
+    );
 }

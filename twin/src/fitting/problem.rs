@@ -290,6 +290,16 @@ impl<'a> Problem<'a> {
         parameters: Vec<Unknown>,
     ) -> Result<Self, CalibrationError> {
         let shape = &replayer.shape;
+        if let Some((name, _)) = options
+            .noise
+            .iter()
+            .find(|(n, _)| shape.signal(n).is_none())
+        {
+            return Err(CalibrationError::Options(format!(
+                "--noise {name}: no such signal (known: {})",
+                signal_names(shape)
+            )));
+        }
         let outputs = outputs(shape, &traces, &options.signals)?;
         let noise_of = |i: usize| noise_of(shape, &traces, i, &options.noise);
         let sigma: Vec<f64> = outputs.iter().map(|&i| noise_of(i)).collect();

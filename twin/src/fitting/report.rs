@@ -135,6 +135,10 @@ pub fn calibrate(
         .map(|run| problem::bind(&replayer, run, min_samples))
         .collect::<Result<Vec<Trace>, _>>()?;
     let mut problem = Problem::new(replayer, traces, options, parameters)?;
+    for run in validate {
+        // A validation run that does not fit the plant is refused before the fit, not after.
+        problem::bind(&problem.replayer, run, 2)?;
+    }
     let (first, mut warnings) = checked(&mut problem)?;
     let start = problem.start();
     let (best_start, solution, iterations) = solve_all(&problem, options, Some(first), progress)?;
@@ -194,6 +198,7 @@ fn checked(problem: &mut Problem) -> Result<(Linearised, Vec<String>), Calibrati
     check::samples(rows, problem.unknowns.len())?;
     let start = problem.start();
     let residuals = problem.residuals(&start)?;
+    finite_cost(problem, &residuals)?;
     let mut jacobian = problem.jacobian(&start, &residuals)?;
     let idle = check::idle_states(&problem.unknowns, &jacobian);
     for &j in idle.iter().rev() {
@@ -219,6 +224,32 @@ fn fitted_coordinates(problem: &Problem) -> Vec<String> {
         }
     }
     names
+}
+
+/// Refuses a start whose weighted residuals are not finite (a noise σ so small that they
+/// overflow), naming the signal and its σ.
+fn finite_cost(problem: &Problem, residuals: &[Vec<f64>]) -> Result<(), CalibrationError> {
+    let outputs = problem.outputs.len().max(1);
+    for segment in residuals {
+        let n = segment.len() / outputs;
+        let cost: f64 = segment.iter().map(|r| r * r).sum();
+        if cost.is_finite() {
+            continue;
+        }
+        let o = (0..outputs)
+            .find(|&o| {
+                segment[o * n..(o + 1) * n]
+                    .iter()
+                    .any(|r| !(r * r).is_finite())
+            })
+            .unwrap_or(0);
+        let name = &problem.replayer.shape.columns.signals[problem.outputs[o]].0;
+        return Err(CalibrationError::Check(format!(
+            "the cost is not finite at the start: {name}'s residuals divided by its noise σ = {:e} overflow; give the σ of the noise it carries (--noise {name}=SIGMA)",
+            problem.sigma[o]
+        )));
+    }
+    Ok(())
 }
 
 /// Per fitted signal, its figures on the run where it fits worst.

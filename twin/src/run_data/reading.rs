@@ -193,10 +193,17 @@ pub(super) fn read_bounded(path: &Path, file: &str) -> Result<Vec<u8>, DataError
         file: file.to_owned(),
         reason,
     };
-    let handle = std::fs::File::open(path).map_err(|e| error(e.to_string()))?;
-    if handle.metadata().is_ok_and(|m| m.is_dir()) {
+    // Only a regular file is opened: a FIFO or a device would block the open or never end.
+    let metadata = std::fs::metadata(path).map_err(|e| error(e.to_string()))?;
+    if metadata.is_dir() {
         return Err(error("it is a directory".into()));
     }
+    if !metadata.is_file() {
+        return Err(error(
+            "it is not a regular file (a FIFO, a socket or a device); give a file".into(),
+        ));
+    }
+    let handle = std::fs::File::open(path).map_err(|e| error(e.to_string()))?;
     let mut bytes = Vec::new();
     handle
         .take(MAX_DATA_BYTES + 1)

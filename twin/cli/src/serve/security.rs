@@ -129,6 +129,13 @@ pub fn read_password(user: &str, file: Option<&Path>) -> Result<String, Security
                 path: path.to_path_buf(),
                 reason,
             };
+            // Only a regular file is opened: a FIFO would block the open.
+            let metadata = std::fs::metadata(path).map_err(|e| bad(e.to_string()))?;
+            if !metadata.is_file() {
+                return Err(bad(
+                    "not a regular file; give a file holding the password".into()
+                ));
+            }
             let text = std::fs::read_to_string(path).map_err(|e| bad(e.to_string()))?;
             let line = text.lines().next().unwrap_or("").to_string();
             if line.is_empty() {
