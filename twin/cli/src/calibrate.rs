@@ -3,10 +3,11 @@
 //! report (calibration.json), the calibrated scenario (calibrated.toml) and a recording of the
 //! fits before and after, the cost per iteration and the intervals (calibration.rrd).
 
-use crate::compare::{rate_line, table_judged};
 use crate::data_flags::{plant_columns, read_run, DataFlags};
 use crate::failure::Failure;
 use crate::fit_figures::{cost_plot, interval_plot, time_plot, AFTER, BEFORE, MEASURED};
+use crate::fit_options::{noise_levels, number};
+use crate::fit_tables::{rate_line, table_judged};
 use framework::Registry;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -213,34 +214,6 @@ fn options(
     Ok((options, args.reading.options(&spec.rename)?))
 }
 
-/// The signals' noise σ: the table's, with `--noise NAME=SIGMA` on top.
-pub(crate) fn noise_levels(
-    given: &[String],
-    spec: &CalibrationSpec,
-) -> Result<Vec<(String, f64)>, Failure> {
-    let mut noise: Vec<(String, f64)> = spec.noise.clone().into_iter().collect();
-    if let Some((name, sigma)) = noise.iter().find(|(_, s)| !(s.is_finite() && *s > 0.0)) {
-        return Err(Failure::usage(format!(
-            "[calibration.noise] \"{name}\" = {sigma}: σ must be a finite number > 0, in the signal's SI unit (e.g. 1e-4)"
-        )));
-    }
-    for entry in given {
-        let context = format!("--noise {entry}");
-        let (name, sigma) = entry
-            .split_once('=')
-            .ok_or_else(|| Failure::usage(format!("{context}: expected NAME=SIGMA")))?;
-        let sigma = number(&context, sigma)?;
-        if !(sigma.is_finite() && sigma > 0.0) {
-            return Err(Failure::usage(format!(
-                "{context}: σ must be a finite number > 0, in the signal's SI unit (e.g. {name}=1e-4)"
-            )));
-        }
-        noise.retain(|(n, _)| n != name);
-        noise.push((name.to_string(), sigma));
-    }
-    Ok(noise)
-}
-
 /// The parameter of `key` among those fitted, or a usage error naming the option.
 fn fitted<'a>(
     parameters: &'a mut [FitParameter],
@@ -251,15 +224,6 @@ fn fitted<'a>(
         .iter_mut()
         .find(|p| p.key == key)
         .ok_or_else(|| Failure::usage(format!("{context}: `{key}` is not fitted; add --fit {key}")))
-}
-
-fn number(context: &str, text: &str) -> Result<f64, Failure> {
-    match text.trim().parse::<f64>() {
-        Ok(value) if value.is_finite() => Ok(value),
-        _ => Err(Failure::usage(format!(
-            "{context}: `{text}` is not a finite number"
-        ))),
-    }
 }
 
 /// The estimates, the warnings and the fits as text.

@@ -13,6 +13,8 @@ pub mod data_flags;
 mod engine_option;
 pub mod failure;
 mod fit_figures;
+mod fit_options;
+mod fit_tables;
 pub mod fmu;
 pub mod frf;
 pub mod linearize;
