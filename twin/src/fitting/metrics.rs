@@ -84,25 +84,7 @@ pub fn whiteness(residual: &[f64], lags: usize) -> Whiteness {
 pub fn whiteness_of(pieces: &[&[f64]], lags: usize) -> Whiteness {
     let n: usize = pieces.iter().map(|p| p.len()).sum();
     let lags = lags.min(n / 4).max(1);
-    let mean = pieces.iter().flat_map(|p| p.iter()).sum::<f64>() / n.max(1) as f64;
-    let variance: f64 = (pieces.iter().flat_map(|p| p.iter()))
-        .map(|r| (r - mean).powi(2))
-        .sum();
-    let correlations: Vec<f64> = (1..=lags)
-        .map(|lag| {
-            let sum: f64 = (pieces.iter().filter(|p| p.len() > lag))
-                .map(|p| {
-                    (p.iter().zip(&p[lag..]))
-                        .map(|(a, b)| (a - mean) * (b - mean))
-                        .sum::<f64>()
-                })
-                .sum();
-            match variance > 0.0 {
-                true => sum / variance,
-                false => 0.0,
-            }
-        })
-        .collect();
+    let correlations = autocorrelations(pieces, lags);
     let count = n as f64;
     let q = count
         * (count + 2.0)
@@ -119,6 +101,31 @@ pub fn whiteness_of(pieces: &[&[f64]], lags: usize) -> Whiteness {
     }
 }
 
+/// The autocorrelations at lags 1..=`lags` of a series cut into pieces (no product across a
+/// cut), about the whole series' mean.
+pub fn autocorrelations(pieces: &[&[f64]], lags: usize) -> Vec<f64> {
+    let n: usize = pieces.iter().map(|p| p.len()).sum();
+    let mean = pieces.iter().flat_map(|p| p.iter()).sum::<f64>() / n.max(1) as f64;
+    let variance: f64 = (pieces.iter().flat_map(|p| p.iter()))
+        .map(|r| (r - mean).powi(2))
+        .sum();
+    (1..=lags)
+        .map(|lag| {
+            let sum: f64 = (pieces.iter().filter(|p| p.len() > lag))
+                .map(|p| {
+                    (p.iter().zip(&p[lag..]))
+                        .map(|(a, b)| (a - mean) * (b - mean))
+                        .sum::<f64>()
+                })
+                .sum();
+            match variance > 0.0 {
+                true => sum / variance,
+                false => 0.0,
+            }
+        })
+        .collect()
+}
+
 /// The χ² quantile of `dof` degrees of freedom at the 99.9 % point (Wilson–Hilferty).
 pub fn chi_square_999(dof: usize) -> f64 {
     let k = dof.max(1) as f64;
@@ -132,30 +139,11 @@ pub fn chi_square_999(dof: usize) -> f64 {
 /// its third derivative's) over the rows. The smaller of the two, so that a curved signal
 /// logged slowly (a ram every 10 ms) is not taken for noise. Quantisation reads as its own noise.
 pub fn noise_level(values: &[f64]) -> f64 {
-    if values.len() < 3 {
-        return 0.0;
+    match difference_noise(values) {
+        Some((second, Some(fourth))) => second.min(fourth),
+        Some((second, None)) => second,
+        None => 0.0,
     }
-    let mean_square = |coefficients: &[f64]| {
-        let n = coefficients.len();
-        let windows = values.windows(n);
-        let count = windows.len().max(1) as f64;
-        let sum: f64 = windows
-            .map(|w| {
-                w.iter()
-                    .zip(coefficients)
-                    .map(|(v, c)| v * c)
-                    .sum::<f64>()
-                    .powi(2)
-            })
-            .sum();
-        sum / count
-    };
-    let second = (mean_square(&[1.0, -2.0, 1.0]) / 6.0).sqrt();
-    if values.len() < 5 {
-        return second;
-    }
-    let fourth = (mean_square(&[1.0, -4.0, 6.0, -4.0, 1.0]) / 70.0).sqrt();
-    second.min(fourth)
 }
 
 /// Whether a signal's differences look like white noise on it: its fourth differences as
@@ -163,9 +151,15 @@ pub fn noise_level(values: &[f64]) -> f64 {
 /// vibration only a few rows long, whose differences are the signal's own: their "noise" is
 /// only an upper bound, and the rows are better taken as they are than smoothed.
 pub fn noise_resolved(values: &[f64]) -> bool {
-    if values.len() < 5 {
-        return false;
+    match difference_noise(values) {
+        Some((second, Some(fourth))) => second > 0.0 && fourth >= 0.5 * second,
+        _ => false,
     }
+}
+
+/// The noise σ the second differences say (variance 6σ² under white noise), and the fourth
+/// (70σ²) where there are five values; `None` under three.
+fn difference_noise(values: &[f64]) -> Option<(f64, Option<f64>)> {
     let rms = |coefficients: &[f64]| -> f64 {
         let windows = values.windows(coefficients.len());
         let count = windows.len().max(1) as f64;
@@ -180,9 +174,12 @@ pub fn noise_resolved(values: &[f64]) -> bool {
             .sum();
         (sum / count).sqrt()
     };
+    if values.len() < 3 {
+        return None;
+    }
     let second = rms(&[1.0, -2.0, 1.0]) / 6f64.sqrt();
-    let fourth = rms(&[1.0, -4.0, 6.0, -4.0, 1.0]) / 70f64.sqrt();
-    second > 0.0 && fourth >= 0.5 * second
+    let fourth = (values.len() >= 5).then(|| rms(&[1.0, -4.0, 6.0, -4.0, 1.0]) / 70f64.sqrt());
+    Some((second, fourth))
 }
 
 /// Student's t two-sided 95 % quantile for `dof` degrees of freedom: the Cornish–Fisher series

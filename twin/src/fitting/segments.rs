@@ -159,6 +159,16 @@ fn firsts(
     Ok((firsts, placed, unplaced))
 }
 
+/// The first `seconds` of run `run` (at least two samples, at most the run) as a segment.
+fn opening(trace: &Trace, run: usize, seconds: f64) -> Segment {
+    Segment {
+        run,
+        start: 0,
+        len: ((seconds / trace.period).round() as usize).clamp(2, trace.samples),
+        lead: 0,
+    }
+}
+
 fn placement_error(trace: &Trace, reason: String) -> CalibrationError {
     CalibrationError::Options(format!(
         "{}: the logged positions cannot be followed along the run ({reason}); check their units and signs, or give --segment 0",
@@ -187,13 +197,7 @@ fn first_placement(
     if candidates.len() == 1 {
         return Ok(candidates.remove(0));
     }
-    let len = ((CHOICE_SPAN / trace.period).round() as usize).clamp(2, trace.samples);
-    let segment = Segment {
-        run,
-        start: 0,
-        len,
-        lead: 0,
-    };
+    let segment = opening(trace, run, CHOICE_SPAN);
     let mut best: Option<(f64, Placement)> = None;
     for candidate in candidates {
         let cost = replay_cost(replayer, assembly, trace, segment, &candidate, setting);
@@ -272,13 +276,7 @@ fn idle(
         let Some(first) = &firsts[run] else {
             return Ok(false);
         };
-        let len = ((CHOICE_SPAN / trace.period).round() as usize).clamp(2, trace.samples);
-        let segment = Segment {
-            run,
-            start: 0,
-            len,
-            lead: 0,
-        };
+        let segment = opening(trace, run, CHOICE_SPAN);
         let Some(base) = replay(replayer, assembly, trace, segment, first, setting) else {
             return Ok(false);
         };
@@ -330,13 +328,8 @@ fn drift_horizon(
     if outputs.len() != names.len() {
         return None;
     }
-    let len = ((DEFAULT_SEGMENT / trace.period).round() as usize).clamp(2, trace.samples);
-    let segment = Segment {
-        run: 0,
-        start: 0,
-        len,
-        lead: 0,
-    };
+    let segment = opening(trace, 0, DEFAULT_SEGMENT);
+    let len = segment.len;
     let probe = |assembly: &mut Assembly, placement: &Placement| {
         let mut values = assembly
             .initial_values(&placement.anchor, &placement.x)

@@ -4,7 +4,7 @@
 //! not fit gets intervals widened by the residuals' own autocorrelation (a Newey–West sandwich),
 //! marked, and advice on what to try.
 
-use super::metrics::{whiteness_of, SignalFit, WHITENESS_LAGS};
+use super::metrics::{autocorrelations, whiteness_of, SignalFit, WHITENESS_LAGS};
 use super::problem::Problem;
 use nalgebra::{DMatrix, DVector};
 use serde::Serialize;
@@ -162,33 +162,6 @@ fn series_of(residuals: &[Vec<f64>], outputs: usize, o: usize) -> Vec<&[f64]> {
         .collect()
 }
 
-/// The autocorrelations at lags 1..=`lags` of a series cut into slices (no product across a
-/// cut), about the series' mean.
-fn autocorrelations(series: &[&[f64]], lags: usize) -> (usize, Vec<f64>) {
-    let n: usize = series.iter().map(|s| s.len()).sum();
-    let mean = series.iter().flat_map(|s| s.iter()).sum::<f64>() / n.max(1) as f64;
-    let variance: f64 = (series.iter().flat_map(|s| s.iter()))
-        .map(|r| (r - mean).powi(2))
-        .sum();
-    let correlations = (1..=lags)
-        .map(|lag| {
-            let sum: f64 = (series.iter())
-                .filter(|s| s.len() > lag)
-                .map(|s| {
-                    (s.iter().zip(&s[lag..]))
-                        .map(|(a, b)| (a - mean) * (b - mean))
-                        .sum::<f64>()
-                })
-                .sum();
-            match variance > 0.0 {
-                true => sum / variance,
-                false => 0.0,
-            }
-        })
-        .collect();
-    (n, correlations)
-}
-
 /// The step of the lattice a fitted signal's logged values lie on (an encoder's count), if
 /// they lie on one: the real greatest common divisor of their differences.
 fn quantum(problem: &Problem, o: usize) -> Option<f64> {
@@ -294,7 +267,7 @@ fn long_run(scores: &[f64], m: usize, bandwidth: usize) -> Vec<f64> {
 /// The first lag at which a series' autocorrelation falls below 0.05, at most
 /// [`MAX_BANDWIDTH`].
 fn correlation_length(series: &[f64]) -> usize {
-    let (_, correlations) = autocorrelations(&[series], MAX_BANDWIDTH.min(series.len() / 2));
+    let correlations = autocorrelations(&[series], MAX_BANDWIDTH.min(series.len() / 2));
     (correlations.iter().position(|r| r.abs() < 0.05)).unwrap_or(correlations.len())
 }
 
