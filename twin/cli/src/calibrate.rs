@@ -50,12 +50,13 @@ pub struct CalibrateArgs {
     pub noise: Vec<String>,
     /// Split the runs into segments of this many seconds, each simulated from its own fitted
     /// start state (multiple shooting), so that a replay never drifts far from its run; 0:
-    /// whole runs [default: the scenario's `[calibration]` segment, else 1 s where the runs
-    /// log every moving joint's position, else whole runs].
+    /// whole runs [default: the scenario's `[calibration]` segment, else 1 s (shorter where the
+    /// model drifts faster) where the logged positions place the mechanism, else whole runs].
     #[arg(long, value_name = "SECONDS")]
     pub segment: Option<f64>,
-    /// Start states fitted per segment: `auto` (every measured joint, or the actuated ones of
-    /// a closed-loop mechanism), `none`, or joints separated by commas.
+    /// Start states fitted per segment, in the mechanism's independent coordinates: `auto`
+    /// (those the logged positions place), `none` (as the data place them), or joints
+    /// separated by commas.
     #[arg(long, value_name = "auto|none|JOINTS")]
     pub states: Option<String>,
     /// Replay the runs with the scenario's controller on the logged reference (to fit a

@@ -223,8 +223,9 @@ impl Scenario {
     }
 
     /// This scenario replaying the measured run in `data` (a `.csv`, `.parquet` or twin `.rrd`
-    /// file) from the run's start state, as `twin compare` does: open loop on its logged
-    /// commands, or with `closed_loop` the scenario's controller on its logged reference.
+    /// file) as `twin compare` does, in 1 s segments from the start states the data give: open
+    /// loop on its logged commands, or with `closed_loop` the scenario's controller on its
+    /// logged reference.
     /// `rename` renames the data's columns first (`{old: new}`, as `--rename old=new`),
     /// `delimiter` gives a CSV file's separator (`","`, `";"` or `"tab"`; default: the
     /// header's), and `strict` refuses the columns the scenario does not know instead of
