@@ -26,7 +26,7 @@ pub struct SignalVerdict {
     pub signal: String,
     /// Its fit % over the runs (after).
     pub fit_percent: f64,
-    /// Ljung–Box Q of its weighted residual over [`LAGS`] lags, pooled over the segments…
+    /// Ljung–Box Q of its weighted residual over 25 lags, pooled over the segments…
     pub ljung_box: f64,
     /// …and the value above which it is not white.
     pub threshold: f64,
