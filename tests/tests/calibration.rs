@@ -874,3 +874,42 @@ fn a_parameter_at_its_bound_is_not_said_to_be_wanted_beyond_it() {
     assert!(!warning.contains("want it beyond"), "{warning}");
     assert!(warning.contains("cannot tell"), "{warning}");
 }
+
+/// An arm falling from upright with its drives off drifts from a start moved by a step a hundred
+/// times as far within a second: the default segment is shorter (0.5 s, measured horizon 0.63 s),
+/// a note says why, and the forearm's mass still comes back.
+#[test]
+fn a_model_that_drifts_fast_gets_shorter_segments_and_a_note() {
+    let dir = folder("drift");
+    let falling = |mass: f64| {
+        (Scenario::builtin("arm-milling").unwrap().duration(2.0))
+            .set("process.drive_power", "off")
+            .and_then(|b| b.set("initial.shoulder.position", 1.5))
+            .and_then(|b| b.set("urdf.link.forearm.mass", mass))
+            .unwrap()
+    };
+    let data = record(falling(5.6), &dir.join("run.csv"));
+    let options = CalibrationOptions {
+        parameters: fit(&["urdf.link.forearm.mass"]),
+        signals: ["shoulder", "elbow", "wrist"]
+            .map(|j| format!("{j}.position"))
+            .to_vec(),
+        ..CalibrationOptions::default()
+    };
+    let result = run_calibration(&falling(5.0), &[data], &[], &options).unwrap();
+    assert!(
+        result.segment > 0.0 && result.segment < 1.0,
+        "{} s",
+        result.segment
+    );
+    assert!(
+        result
+            .notes
+            .iter()
+            .any(|n| n.starts_with("segments of") && n.contains("drift")
+                || n.contains("part from a start")),
+        "{:?}",
+        result.notes
+    );
+    assert!((estimate(&result, "urdf.link.forearm.mass") / 5.6 - 1.0).abs() < 1e-6);
+}

@@ -180,11 +180,11 @@ pub(super) fn replay(problem: &Problem, theta: &[f64]) -> Result<Vec<RunReplay>,
         let mut times = (f64::INFINITY, f64::NEG_INFINITY);
         for (o, row) in simulated.iter().enumerate() {
             let (measured, replayed): (Vec<f64>, Vec<f64>) = problem
-                .observed(s, o)
-                .map(|(place, y)| {
+                .paired(s, o, row)
+                .map(|(place, y, replayed)| {
                     let t = trace.start_time + (segment.start as f64 + place) * trace.period;
                     times = (times.0.min(t), times.1.max(t));
-                    (y, problem::at_place(row, place))
+                    (y, replayed)
                 })
                 .unzip();
             let (name, unit) = names(o);
@@ -200,7 +200,7 @@ pub(super) fn replay(problem: &Problem, theta: &[f64]) -> Result<Vec<RunReplay>,
             signals,
         });
     }
-    for (run, series) in runs.iter_mut().zip(joined) {
+    for ((run, series), trace) in runs.iter_mut().zip(joined).zip(&problem.traces) {
         for (o, (measured, replayed, grid)) in series.into_iter().enumerate() {
             let (name, unit) = names(o);
             run.signals
@@ -208,14 +208,11 @@ pub(super) fn replay(problem: &Problem, theta: &[f64]) -> Result<Vec<RunReplay>,
             run.overlays.push(Overlay {
                 signal: name,
                 unit,
-                measured: Vec::new(),
+                measured: trace.measured[problem.outputs[o]]
+                    .clone()
+                    .unwrap_or_default(),
                 simulated: grid,
             });
-        }
-    }
-    for (run, trace) in runs.iter_mut().zip(&problem.traces) {
-        for (overlay, &i) in run.overlays.iter_mut().zip(&problem.outputs) {
-            overlay.measured = trace.measured[i].clone().unwrap_or_default();
         }
     }
     Ok(runs)

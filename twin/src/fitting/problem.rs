@@ -110,15 +110,6 @@ impl Replayer<'_> {
         })?;
         Ok(Assembly::new(&parts))
     }
-
-    /// A plant signal's sensor gain and bias in the scenario (1 and 0 without a sensor).
-    pub fn sensors(&self) -> impl Fn(&str) -> (f64, f64) + '_ {
-        move |name: &str| {
-            let gain = self.base.number(&format!("sensors.\"{name}\".gain"));
-            let bias = self.base.number(&format!("sensors.\"{name}\".bias"));
-            (gain.unwrap_or(1.0), bias.unwrap_or(0.0))
-        }
-    }
 }
 
 /// `data` bound to the plant; open loop, every actuator's command must be logged.
@@ -314,12 +305,9 @@ impl<'a> Problem<'a> {
         let threads = thread_count(options.threads);
         let template = replayer.assembly()?;
         let assembly = &mut template.clone();
-        let probes: Vec<[Vec<Probe>; 2]> = {
-            let sensors = replayer.sensors();
-            (traces.iter())
-                .map(|t| assembly.probes(shape, t, &|name| sensors(name), &smoothed))
-                .collect()
-        };
+        let probes: Vec<[Vec<Probe>; 2]> = (traces.iter())
+            .map(|t| assembly.probes(shape, t, &smoothed))
+            .collect();
         let starting: Vec<(String, f64)> = (parameters.iter())
             .map(|u| (u.key.clone(), u.start))
             .collect();
@@ -426,35 +414,39 @@ impl<'a> Problem<'a> {
         (self.replayer).simulate(trace, segment, &values, &self.outputs)
     }
 
-    /// The data rows segment `s` compares, for output `o`: each row's place within the segment
-    /// (in samples from its start) and its value.
-    pub fn observed(&self, s: usize, o: usize) -> impl Iterator<Item = (f64, f64)> + '_ {
+    /// The data rows segment `s` compares for output `o`, beside the replay `row` of that output
+    /// (one value per control period from the segment's start): each row's place within the
+    /// segment (in samples), its measured value and the replay there (interpolated between the
+    /// replay's samples where the row falls between two).
+    pub fn paired<'r>(
+        &'r self,
+        s: usize,
+        o: usize,
+        row: &'r [f64],
+    ) -> impl Iterator<Item = (f64, f64, f64)> + 'r {
         let segment = self.segments[s];
         let trace = &self.traces[segment.run];
         let i = self.outputs[o];
-        let rows = self.observations[s].clone();
         let places = trace.rows.as_deref();
         let values = match places {
             None => trace.measured[i].as_deref(),
             Some(_) => trace.logged[i].as_deref(),
         }
         .unwrap_or_default();
-        rows.map(move |r| {
-            let place = places.map_or(r as f64, |p| p[r]);
-            (place - segment.start as f64, values[r])
+        self.observations[s].clone().map(move |r| {
+            let place = places.map_or(r as f64, |p| p[r]) - segment.start as f64;
+            (place, values[r], at_place(row, place))
         })
     }
 
     /// Segment `s`'s residuals at `theta`, each divided by its signal's noise: signal-major, at
-    /// the data's own rows (the twin interpolated between its samples where a row falls between
-    /// two).
+    /// the data's own rows.
     fn residual(&self, theta: &[f64], s: usize) -> Result<Vec<f64>, CalibrationError> {
         let simulated = self.simulate(theta, s)?;
         let mut residual = Vec::with_capacity(self.rows(s));
         for (o, (row, sigma)) in simulated.iter().zip(&self.sigma).enumerate() {
-            for (place, measured) in self.observed(s, o) {
-                residual.push((measured - at_place(row, place)) / sigma);
-            }
+            let pairs = self.paired(s, o, row);
+            residual.extend(pairs.map(|(_, measured, replayed)| (measured - replayed) / sigma));
         }
         Ok(residual)
     }
@@ -515,7 +507,7 @@ impl<'a> Problem<'a> {
 
 /// A sampled series' value at `place` (in samples, fractional between two): linear between
 /// the samples around it.
-pub fn at_place(series: &[f64], place: f64) -> f64 {
+fn at_place(series: &[f64], place: f64) -> f64 {
     let k = (place.floor().max(0.0) as usize).min(series.len().saturating_sub(1));
     let weight = place - k as f64;
     match series.get(k + 1) {

@@ -14,7 +14,9 @@ use crate::mechanism::JointMotion;
 use crate::physics::{MechanismState, ReducedDynamics, ReducedError};
 use crate::run::ModelParts;
 use crate::run_data::Trace;
+use crate::sensors::SensorSpec;
 use nalgebra::{DMatrix, DVector};
+use std::collections::BTreeMap;
 
 /// Widest half-width of a local fit, s: long enough to average the noise, short enough that a
 /// cubic follows a linkage's positions (narrower where the rows say it does not).
@@ -50,8 +52,6 @@ pub struct Probe {
 /// Where the data place the mechanism at one sample.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Placement {
-    /// The sample.
-    pub sample: usize,
     /// The independent coordinates' positions, then their velocities (URDF sense).
     pub x: Vec<f64>,
     /// Every tree joint's position there: the branch later loop closures start from.
@@ -74,6 +74,8 @@ pub struct Assembly {
     anchor0: Vec<f64>,
     /// Whether the mechanism closes loops (its placements then follow the run).
     pub loops: bool,
+    /// The scenario's sensors (their gain and bias read the joints).
+    sensors: BTreeMap<String, SensorSpec>,
 }
 
 impl Assembly {
@@ -103,6 +105,7 @@ impl Assembly {
             movable,
             coordinates,
             state: parts.state.clone(),
+            sensors: parts.scenario.sensors.clone(),
             reduced,
         }
     }
@@ -144,12 +147,12 @@ impl Assembly {
     }
 
     /// The logged joint positions and velocities of `trace` as probes, with their sensors'
-    /// gain and bias and their noise σ from `sigma` (per plant signal).
+    /// gain and bias and, from `sigma` (per plant signal), their noise σ and whether their rows
+    /// are smoothed.
     pub fn probes(
         &self,
         shape: &PlantShape,
         trace: &Trace,
-        sensors: &dyn Fn(&str) -> (f64, f64),
         sigma: &dyn Fn(usize) -> (f64, bool),
     ) -> [Vec<Probe>; 2] {
         let mut probes = [Vec::new(), Vec::new()];
@@ -165,7 +168,8 @@ impl Assembly {
                 if trace.measured[signal].is_none() {
                     continue;
                 }
-                let (gain, bias) = sensors(&signal_name);
+                let (gain, bias) = (self.sensors.get(&signal_name))
+                    .map_or((1.0, 0.0), |sensor| (sensor.gain, sensor.bias));
                 if gain == 0.0 || !gain.is_finite() {
                     continue;
                 }
@@ -414,26 +418,19 @@ impl Assembly {
             else {
                 continue;
             };
-            let anchor = self.anchor_along(&anchor_x(&self.x0), &x)?;
+            let anchor = self.anchor_along(&self.x0.clone(), &x)?;
             if found.iter().any(|(_, p)| distance(&p.x, &x) < 1e-6) {
                 continue;
             }
-            found.push((
-                misfit,
-                Placement {
-                    sample: 0,
-                    x,
-                    anchor,
-                },
-            ));
+            found.push((misfit, Placement { x, anchor }));
         }
         let best = found.iter().map(|(m, _)| *m).fold(f64::INFINITY, f64::min);
         let mut kept: Vec<Placement> = (found.into_iter())
             .filter(|(m, _)| *m <= best + CANDIDATE_MISFIT)
             .map(|(_, p)| p)
             .collect();
+        let velocities = local_fits(trace, &probes[1], 0).ok_or("too few rows")?;
         for placement in &mut kept {
-            let velocities = local_fits(trace, &probes[1], 0).ok_or("too few rows")?;
             let (anchor, mut x) = (placement.anchor.clone(), placement.x.clone());
             (self.solve_velocities(&anchor, &mut x, probes, &fits, &velocities))
                 .map_err(|e| e.to_string())?;
@@ -493,11 +490,6 @@ impl Assembly {
     }
 }
 
-/// The positions of x with zero velocities (a state to continue along).
-fn anchor_x(x: &[f64]) -> Vec<f64> {
-    x.to_vec()
-}
-
 fn distance(a: &[f64], b: &[f64]) -> f64 {
     a.iter().zip(b).fold(0.0, |m, (x, y)| m.max((x - y).abs()))
 }
@@ -514,7 +506,6 @@ impl Assembly {
         first: &Placement,
         begins: &[usize],
     ) -> Result<Vec<Placement>, String> {
-        let k = self.coordinates.len();
         let (mut anchor, mut x) = (first.anchor.clone(), first.x.clone());
         let mut placements = Vec::with_capacity(begins.len());
         let mut sample = 0;
@@ -527,7 +518,6 @@ impl Assembly {
             }
             let placement = self.place_at(trace, probes, begin, &anchor, &x)?;
             (anchor, x) = (placement.anchor.clone(), placement.x.clone());
-            x.truncate(2 * k);
             placements.push(placement);
         }
         Ok(placements)
@@ -589,7 +579,6 @@ impl Assembly {
             .map_err(|e| error(e.to_string()))?;
         let state = self.place(anchor, &x).map_err(|e| error(e.to_string()))?;
         Ok(Placement {
-            sample: at,
             anchor: state.joint_positions.clone(),
             x,
         })
