@@ -52,3 +52,51 @@ pub fn scratch(test: &str) -> PathBuf {
     std::fs::create_dir_all(&dir).expect("temp dir");
     dir
 }
+
+/// A source of uniform draws in [0, 1).
+pub type Uniform<'a> = dyn FnMut() -> f64 + 'a;
+
+/// A run's CSV as a logger would write it: the `time` column and `columns` (names without
+/// their units) of `from`, each with Gaussian noise of its σ in `noise` (Box–Muller on the
+/// draws of `uniform`, in [0, 1)), the rows `keep` keeps (given the row, the row count and the
+/// same draws, asked before the row's noise is drawn).
+pub fn logged_csv(
+    from: &std::path::Path,
+    columns: &[&str],
+    noise: &[(&str, f64)],
+    uniform: &mut Uniform,
+    keep: &dyn Fn(usize, usize, &mut Uniform) -> bool,
+) -> String {
+    let text = std::fs::read_to_string(from).unwrap();
+    let mut lines = text.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let name = |h: &str| h.split(" [").next().unwrap().to_string();
+    let kept: Vec<usize> = (0..header.len())
+        .filter(|&c| c == 0 || columns.contains(&name(header[c]).as_str()))
+        .collect();
+    let sigma: Vec<f64> = (kept.iter())
+        .map(|&c| (noise.iter().find(|(n, _)| *n == name(header[c]))).map_or(0.0, |(_, s)| *s))
+        .collect();
+    let rows: Vec<&str> = lines.collect();
+    let mut out = kept
+        .iter()
+        .map(|&c| header[c])
+        .collect::<Vec<_>>()
+        .join(",")
+        + "\n";
+    for (r, row) in rows.iter().enumerate() {
+        let keeping = keep(r, rows.len(), uniform);
+        let cells: Vec<f64> = row.split(',').map(|v| v.parse().unwrap()).collect();
+        let values: Vec<String> = (kept.iter().zip(&sigma))
+            .map(|(&c, &s)| {
+                let (u1, u2) = (uniform().max(f64::MIN_POSITIVE), uniform());
+                let normal = (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos();
+                (cells[c] + s * normal).to_string()
+            })
+            .collect();
+        if keeping {
+            out += &(values.join(",") + "\n");
+        }
+    }
+    out
+}

@@ -585,16 +585,6 @@ fn logged(
     noise: &[(&str, f64)],
     keep: impl Fn(usize) -> bool,
 ) -> RunData {
-    let text = std::fs::read_to_string(from).unwrap();
-    let mut lines = text.lines();
-    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
-    let name = |h: &str| h.split(" [").next().unwrap().to_string();
-    let kept: Vec<usize> = (0..header.len())
-        .filter(|&c| c == 0 || columns.contains(&name(header[c]).as_str()))
-        .collect();
-    let sigma: Vec<f64> = (kept.iter())
-        .map(|&c| (noise.iter().find(|(n, _)| *n == name(header[c]))).map_or(0.0, |(_, s)| *s))
-        .collect();
     let mut state = 0x2545_F491_4F6C_DD1D_u64;
     let mut uniform = move || {
         state ^= state << 13;
@@ -602,26 +592,8 @@ fn logged(
         state ^= state << 17;
         (state >> 11) as f64 / (1u64 << 53) as f64
     };
-    let mut out = kept
-        .iter()
-        .map(|&c| header[c])
-        .collect::<Vec<_>>()
-        .join(",")
-        + "\n";
-    for (r, line) in lines.enumerate() {
-        let cells: Vec<f64> = line.split(',').map(|v| v.parse().unwrap()).collect();
-        let values: Vec<String> = (kept.iter().zip(&sigma))
-            .map(|(&c, &s)| {
-                let (u1, u2) = (uniform().max(f64::MIN_POSITIVE), uniform());
-                let normal = (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos();
-                (cells[c] + s * normal).to_string()
-            })
-            .collect();
-        if keep(r) {
-            out += &(values.join(",") + "\n");
-        }
-    }
-    std::fs::write(to, out).unwrap();
+    let text = twin_tests::logged_csv(from, columns, noise, &mut uniform, &|r, _, _| keep(r));
+    std::fs::write(to, text).unwrap();
     RunData::read(to, &[]).unwrap()
 }
 

@@ -299,51 +299,31 @@ impl Machine {
 /// A copy of the logged run `clean` keeping `columns`, with seeded Gaussian noise of each
 /// column's σ and a share `drop` of its rows (never the first or last) left out.
 fn logged(machine: &Machine, clean: &Path, columns: &[&str], drop: f64, seed: u64) -> PathBuf {
-    let text = std::fs::read_to_string(clean).unwrap();
-    let mut lines = text.lines();
-    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
-    let name = |h: &str| h.split(" [").next().unwrap().to_string();
-    let kept: Vec<usize> = (0..header.len())
-        .filter(|&c| c == 0 || columns.contains(&name(header[c]).as_str()))
-        .collect();
-    let sigma: Vec<f64> = (kept.iter())
-        .map(|&c| {
-            let n = name(header[c]);
-            (machine.noise.iter().find(|(s, _)| *s == n)).map_or(0.0, |(_, s)| *s)
-        })
-        .collect();
-    let mut random = Gaussian::new(seed);
-    let rows: Vec<&str> = lines.collect();
-    let mut out = kept
-        .iter()
-        .map(|&c| header[c])
-        .collect::<Vec<_>>()
-        .join(",")
-        + "\n";
-    for (r, row) in rows.iter().enumerate() {
-        let dropped = random.uniform() < drop;
-        let cells: Vec<f64> = row.split(',').map(|v| v.parse().unwrap()).collect();
-        let values: Vec<String> = (kept.iter().zip(&sigma))
-            .map(|(&c, &s)| (cells[c] + s * random.normal()).to_string())
-            .collect();
-        if dropped && r > 0 && r + 1 < rows.len() {
-            continue;
-        }
-        out += &(values.join(",") + "\n");
-    }
+    let mut random = Draws::new(seed);
+    let keep = |r: usize, rows: usize, uniform: &mut twin_tests::Uniform| {
+        let dropped = uniform() < drop;
+        !(dropped && r > 0 && r + 1 < rows)
+    };
+    let text = twin_tests::logged_csv(
+        clean,
+        columns,
+        machine.noise,
+        &mut || random.uniform(),
+        &keep,
+    );
     let file = clean.with_file_name(format!(
         "logged-{}-{seed}-{}.csv",
         columns.len(),
         (drop * 100.0) as u32
     ));
-    std::fs::write(&file, out).unwrap();
+    std::fs::write(&file, text).unwrap();
     file
 }
 
-/// Seeded draws (splitmix64; Box–Muller for the normal ones).
-struct Gaussian(u64);
+/// Seeded uniform draws in [0, 1) (splitmix64).
+struct Draws(u64);
 
-impl Gaussian {
+impl Draws {
     fn new(seed: u64) -> Self {
         Self(seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) ^ 0xD1B5_4A32_D192_ED03)
     }
@@ -354,11 +334,6 @@ impl Gaussian {
         z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
         z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
         ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
-    }
-
-    fn normal(&mut self) -> f64 {
-        let u = self.uniform().max(f64::MIN_POSITIVE);
-        (-2.0 * u.ln()).sqrt() * (std::f64::consts::TAU * self.uniform()).cos()
     }
 }
 
