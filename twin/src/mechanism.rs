@@ -239,6 +239,8 @@ pub struct Joint {
     pub limits: Option<[f64; 2]>,
     /// Largest |effort| (N·m or N); `Some` marks the joint as actuated.
     pub effort_limit: Option<f64>,
+    /// Largest |velocity| the URDF declares (rad/s or m/s), when it declares one above zero.
+    pub velocity_limit: Option<f64>,
     /// Viscous damping, N·m·s/rad or N·s/m.
     pub damping: f64,
     /// Dry friction, N·m or N.

@@ -511,6 +511,8 @@ impl Loader<'_> {
             origin,
             limits,
             effort_limit,
+            velocity_limit: (limit.velocity > 0.0 && limit.velocity.is_finite())
+                .then_some(limit.velocity),
             damping,
             friction,
             spring: None,

@@ -39,6 +39,7 @@ const MASS: &str = "kind = \"link_mass\"\nlink = \"ram\"\nvalue = 6.0\nstart = 2
 const FRICTION: &str = "kind = \"joint_friction\"\njoint = \"crank\"\nvalue = 5.0\nstart = 20.0";
 const BIAS: &str =
     "kind = \"sensor_bias\"\nsignal = \"crank.position\"\nvalue = 0.05\nstart = 20.0";
+const DAMPING: &str = "kind = \"joint_damping\"\njoint = \"crank\"\nvalue = 0.4\nstart = 20.0";
 const COLLISION: &str =
     "kind = \"collision\"\njoint = \"crank\"\nvalue = 150.0\nstart = 20.0\nend = 20.05";
 
@@ -212,6 +213,33 @@ fn data_crank_friction_is_found_and_measured() {
     generate(&dir, "friction", 40.0, Some(FRICTION));
     let summary = shadow_data(&dir, "friction");
     put_on(the_anomaly(&summary, 0.5), "urdf.joint.crank.friction", 5.0);
+}
+
+// Measured (release): crank damping 0 → 0.4 N·m·s/rad (2.5 N·m at the crank's 2π rad/s),
+// tracked at its default drift (0.1 N·m·s/rad per √s: a tenth of the crank's 300 N·m effort
+// limit at a tenth of its 60 rad/s velocity limit, × 0.02). Before, the default was friction's
+// figure put in damping's unit (0.6 per √s): no anomaly, and 0.451 ± 0.403 at the end. Now
+// detected 0.31 s after the onset, 0.068 → 0.393 [0.246, 0.541].
+
+#[test]
+fn data_crank_damping_is_found_at_its_default_drift() {
+    let _shared = shared();
+    let dir = scratch("shadow", "data-damping");
+    generate(&dir, "damping", 40.0, Some(DAMPING));
+    let (toml, csv) = ("damping.toml", "damping.csv");
+    let mut args: Vec<String> = ["shadow", toml, "--data", csv].map(String::from).into();
+    // Not with the crank's friction as well: at the crank's nearly steady speed a damping and a
+    // dry friction are the same torque, and the two share the change without either moving
+    // enough to alarm (measured: damping 0.38 ± 0.34, friction 0.06 ± 2.1, no anomaly).
+    args.extend(watching_these(&[
+        "urdf.link.ram.mass",
+        "urdf.joint.crank.damping",
+    ]));
+    args.extend(["--out", "shadow.rrd", "--summary", "shadow.json"].map(String::from));
+    let output = twin(&args, &dir);
+    assert!(output.status.success(), "{}", text(&output.stderr));
+    let summary = read_json(&dir.join("shadow.json"));
+    put_on(the_anomaly(&summary, 2.0), "urdf.joint.crank.damping", 0.4);
 }
 
 #[test]
@@ -439,6 +467,19 @@ fn live_a_heavier_ram_is_found_through_jitter_reordering_and_repeats() {
             "{key}: {estimate} [{low}, {high}] misses {truth}"
         );
     }
+    // The machine's clock is 2027-01-15 at data time 0, weeks ahead of this computer's: the
+    // offset says so, and the latency net of it is never negative.
+    let offset = number(&summary["clock_offset_s"]);
+    let ahead = EPOCH
+        - std::time::SystemTime::now()
+            .duration_since(std::time::UNIX_EPOCH)
+            .unwrap()
+            .as_secs_f64();
+    assert!(
+        (offset + ahead).abs() < 3600.0,
+        "offset {offset} s, machine ahead {ahead} s"
+    );
+    assert!(number(&summary["latency_us"]["p50"]) >= 0.0, "{summary:#}");
     let processed = count(&summary, "processed");
     assert!(processed > 0.95 * 3.0 * 100.0 * 30.0, "{summary:#}");
     assert!(count(&summary, "duplicate") > 0.0, "{summary:#}");
@@ -661,4 +702,88 @@ fn bad_input_is_refused_in_one_line_leaving_nothing_behind() {
         assert_eq!(left, ["healthy.toml", "map.toml"], "{case}");
     }
     drop(silent);
+}
+
+/// Each bad logged-run input: (name, arguments after `shadow`, what stderr must name).
+fn bad_data_inputs(port: u16) -> Vec<(&'static str, Vec<String>, String)> {
+    let args = |extra: &[&str]| -> Vec<String> { extra.iter().map(|s| s.to_string()).collect() };
+    let watched = ["--signals", "crank.position,crank.velocity"];
+    let publish = format!("opc.tcp://127.0.0.1:{port}");
+    vec![
+        (
+            "header only",
+            args(&[&["healthy.toml", "--data", "header.csv"][..], &watched].concat()),
+            "header.csv".into(),
+        ),
+        (
+            "no longer than --learn",
+            args(&[&["healthy.toml", "--data", "short.csv"][..], &watched].concat()),
+            "--learn".into(),
+        ),
+        (
+            "no noise",
+            // The built-in scenario's tachometer declares no noise.
+            args(
+                &[
+                    &["whitworth-crank-pi", "--data", "healthy.csv"][..],
+                    &watched,
+                ]
+                .concat(),
+            ),
+            "crank.velocity".into(),
+        ),
+        (
+            "publish on a taken port",
+            args(
+                &[
+                    &["healthy.toml", "--data", "healthy.csv"][..],
+                    &watched,
+                    &["--publish", &publish],
+                ]
+                .concat(),
+            ),
+            format!("{port}"),
+        ),
+    ]
+}
+
+#[test]
+fn bad_data_input_is_refused_in_one_line_leaving_nothing_behind() {
+    let _shared = shared();
+    let dir = scratch("shadow", "bad-data");
+    generate(&dir, "healthy", 40.0, None);
+    let csv = std::fs::read_to_string(dir.join("healthy.csv")).unwrap();
+    let header = csv.lines().next().unwrap();
+    std::fs::write(dir.join("header.csv"), format!("{header}\n")).unwrap();
+    let short: Vec<&str> = csv.lines().take(301).collect();
+    std::fs::write(dir.join("short.csv"), short.join("\n") + "\n").unwrap();
+    let taken = TcpListener::bind("127.0.0.1:0").unwrap();
+    let port = taken.local_addr().unwrap().port();
+    let before = listing(&dir);
+    for (case, args, named) in bad_data_inputs(port) {
+        let mut all = vec!["shadow".to_string()];
+        all.extend(args);
+        all.extend(["--out", "bad.rrd", "--summary", "bad.json"].map(String::from));
+        let output = twin(&all, &dir);
+        let stderr = text(&output.stderr);
+        assert!(
+            matches!(output.status.code(), Some(1 | 2)),
+            "{case}: {:?} {stderr}",
+            output.status
+        );
+        assert_eq!(stderr.trim().lines().count(), 1, "{case}: {stderr}");
+        assert!(stderr.contains(&named), "{case}: `{named}` not in {stderr}");
+        assert_eq!(listing(&dir), before, "{case}: files left");
+    }
+    drop(taken);
+}
+
+/// The names in `dir`, sorted.
+fn listing(dir: &Path) -> Vec<String> {
+    let mut names: Vec<String> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    names.sort();
+    names
 }

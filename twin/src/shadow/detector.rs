@@ -31,8 +31,16 @@ const ATTRIBUTION_SIGMAS: f64 = 3.0;
 /// Seconds after its end during which an anomaly's attribution is still updated, as the
 /// parameters settle on their new values.
 const ATTRIBUTION_SETTLE: f64 = 10.0;
-/// Seconds the tests wait after a gap in the samples while the filter takes the state up again.
-const REACQUIRE: f64 = 2.0;
+/// Seconds the tests wait at least after a gap in the samples while the filter takes the state
+/// up again.
+pub(super) const REACQUIRE: f64 = 2.0;
+/// Seconds every innovation must stay in its learnt band before the tests resume after a gap.
+const SETTLED: f64 = 0.5;
+/// A normalised innovation is in its learnt band within this many learnt spreads of its mean.
+const BAND: f64 = 4.0;
+/// Seconds after a gap at most that the tests wait for the innovations to settle: a machine
+/// that changed while it was out of sight is tested again, its parameters freed.
+const REACQUIRE_LIMIT: f64 = 10.0;
 /// CUSUM reference value, in standard deviations of a block mean.
 const REFERENCE: f64 = 0.5;
 
@@ -107,6 +115,8 @@ struct KnobTest {
     /// (time, estimate) over the last seconds, to read the value at an anomaly's start.
     history: VecDeque<(f64, f64)>,
     calm_since: f64,
+    /// The largest drift while alarmed, in standard deviations.
+    peak: f64,
 }
 
 /// The statistics a step shows, per test.
@@ -144,8 +154,10 @@ pub(super) struct Detector {
     cusum_threshold: f64,
     drift_threshold: f64,
     released_since: f64,
-    /// The tests wait until then after a gap.
-    paused_until: f64,
+    /// After a gap: since when the tests wait, and since when the innovations are in band.
+    reacquiring: Option<(f64, Option<f64>)>,
+    /// Seconds the tests wait at least after the reacquisition began.
+    wait: f64,
     open: Option<Anomaly>,
     pub closed: Vec<Anomaly>,
     pub view: DetectorView,
@@ -172,21 +184,58 @@ impl Detector {
             cusum_threshold: f64::INFINITY,
             drift_threshold: f64::INFINITY,
             released_since: 0.0,
-            paused_until: f64::NEG_INFINITY,
+            reacquiring: None,
+            wait: 0.0,
             open: None,
             closed: Vec::new(),
         }
     }
 
-    /// After a gap in the samples: the tests start afresh once the filter has taken the state
-    /// up again ([`REACQUIRE`] s after `time`); the parameters keep their references.
-    pub fn resume_after_gap(&mut self, time: f64) {
-        self.paused_until = time + REACQUIRE;
+    /// After a gap in the samples (or a command that came too late to be used): the tests wait
+    /// while the filter takes the state up again, at least `wait` s after `time` (after a gap,
+    /// [`REACQUIRE`]) and until every innovation has been in its learnt band for [`SETTLED`] s
+    /// (at most [`REACQUIRE_LIMIT`] s); the parameters keep their references.
+    pub fn resume_after(&mut self, time: f64, wait: f64) {
+        let since = match self.reacquiring {
+            Some((since, _)) => since,
+            None => time,
+        };
+        self.reacquiring = Some((since, None));
+        self.wait = self.wait.max(wait + time - since);
+    }
+
+    /// Whether the tests are waiting for the state to be taken up again after a gap.
+    pub fn reacquiring(&self) -> bool {
+        self.reacquiring.is_some()
+    }
+
+    /// While reacquiring: whether the innovations `z` have now settled in their band (the tests
+    /// then start afresh from `time`).
+    fn reacquired(&mut self, time: f64, z: &[(usize, f64)]) -> bool {
+        let Some((since, calm)) = self.reacquiring else {
+            return true;
+        };
+        let in_band = z.iter().all(|&(s, value)| {
+            let test = &self.signals[s];
+            let (mean, spread) = match self.learning {
+                true => (0.0, 1.0),
+                false => (test.mean, test.learnt.spread().max(1e-12)),
+            };
+            (value - mean).abs() <= BAND * spread
+        });
+        let calm = if in_band { calm.or(Some(time)) } else { None };
+        let settled = calm.is_some_and(|c| time - c >= SETTLED) && time - since >= self.wait;
+        if !(settled || time - since >= REACQUIRE_LIMIT) {
+            self.reacquiring = Some((since, calm));
+            return false;
+        }
+        (self.reacquiring, self.wait) = (None, 0.0);
         for test in &mut self.signals {
             (test.high, test.low, test.filling) = (0.0, 0.0, (0, 0.0));
-            (test.high_zero, test.low_zero) = (self.paused_until, self.paused_until);
+            (test.high_zero, test.low_zero) = (time, time);
         }
-        self.nis_window = (self.paused_until, 0.0, 0);
+        self.nis_window = (time, 0.0, 0);
+        true
     }
 
     /// Whether the detector is still learning the healthy statistics.
@@ -213,6 +262,9 @@ impl Detector {
         knobs: &[(f64, f64)],
     ) -> Option<AnomalyChange> {
         let start = *self.start.get_or_insert(time);
+        if !self.reacquired(time, z) {
+            return None;
+        }
         if self.learning {
             if time < start + self.setup.learn {
                 for &(s, value) in z {
@@ -222,9 +274,6 @@ impl Detector {
                 return None;
             }
             self.end_learning(time, knobs);
-        }
-        if time < self.paused_until {
-            return None;
         }
         for &(s, value) in z {
             self.signal_step(s, value, time);
@@ -329,6 +378,9 @@ impl Detector {
             } else if drift < 0.5 * threshold {
                 test.alarm = false;
             }
+            if test.alarm {
+                test.peak = test.peak.max(drift);
+            }
             if drift < 1.0 {
                 test.calm_since = time;
             }
@@ -376,7 +428,9 @@ impl Detector {
             self.released_since = time;
         }
         let start = self.change_point(time);
-        let size = self.signals.iter().map(|t| t.peak).fold(0.0, f64::max);
+        let size = (self.signals.iter().map(|t| t.peak))
+            .chain(self.knobs.iter().map(|t| t.peak))
+            .fold(0.0, f64::max);
         if self.open.is_none() {
             self.settle(time, knobs);
         }
@@ -405,6 +459,8 @@ impl Detector {
                 let since = anomaly.start;
                 let attribution = self.attribute(since, knobs);
                 let anomaly = self.open.as_mut()?;
+                // Until it ends, the parameter that explains it is the one that moved most so
+                // far; when it ends, that is what it is put on.
                 anomaly.attribution = attribution;
                 if alarming || time - self.released_since < RELEASE_HOLD {
                     return None;
@@ -414,21 +470,31 @@ impl Detector {
                 for test in &mut self.signals {
                     test.peak = 0.0;
                 }
+                for test in &mut self.knobs {
+                    test.peak = 0.0;
+                }
                 self.closed.push(closed.clone());
                 Some(AnomalyChange::Closed(closed))
             }
         }
     }
 
-    /// Updates the last closed anomaly's attribution while its parameters settle.
+    /// Updates the last closed anomaly's estimate of the parameter that explains it while the
+    /// parameters settle; which parameter that is (or that none does) was said when it closed.
     fn settle(&mut self, time: f64, knobs: &[(f64, f64)]) {
         let Some(last) = self.closed.last() else {
             return;
         };
         if last.end.is_some_and(|end| time - end < ATTRIBUTION_SETTLE) {
             let attribution = self.attribute(last.start, knobs);
-            if let Some(last) = self.closed.last_mut() {
-                last.attribution = attribution;
+            if let (Some(last), Some(new)) = (self.closed.last_mut(), attribution) {
+                if last
+                    .attribution
+                    .as_ref()
+                    .is_some_and(|a| a.parameter == new.parameter)
+                {
+                    last.attribution = Some(new);
+                }
             }
         }
     }

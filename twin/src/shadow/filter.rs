@@ -44,6 +44,9 @@ pub(super) struct Filter {
     pub noise: Vec<f64>,
     /// The initial standard deviations, to loosen the state to after a gap.
     loose: Vec<f64>,
+    /// The parameters held (after a gap, while the state is taken up again): the updates
+    /// leave them and their variances as they are.
+    pub hold: bool,
     tape: Tape,
 }
 
@@ -74,6 +77,7 @@ impl Filter {
             drift: tuning.drift,
             noise: tuning.noise,
             loose: tuning.initial_sigma,
+            hold: false,
             tape: Tape::default(),
         }
     }
@@ -149,8 +153,10 @@ impl Filter {
             q[(c + i, i)] = q[(i, c + i)];
             q[(c + i, c + i)] = density * span;
         }
-        for (j, rate) in self.drift.iter().enumerate() {
-            q[(2 * c + j, 2 * c + j)] = rate * span;
+        if !self.hold {
+            for (j, rate) in self.drift.iter().enumerate() {
+                q[(2 * c + j, 2 * c + j)] = rate * span;
+            }
         }
         q
     }
@@ -206,7 +212,13 @@ impl Filter {
                 reason: "the innovation covariance is singular".into(),
             });
         };
-        let gain = &self.p * h.transpose() * &s_inverse;
+        let mut gain = &self.p * h.transpose() * &s_inverse;
+        if self.hold {
+            // A consider (Schmidt) update: the parameters' rows of the gain are zero, and the
+            // Joseph form below keeps the covariance right for any gain.
+            let k = 2 * self.coordinates();
+            gain.rows_mut(k, n - k).fill(0.0);
+        }
         let correction = &gain * &residual;
         for (value, dx) in self.x.iter_mut().zip(correction.iter()) {
             *value += dx;

@@ -28,12 +28,16 @@ pub(super) struct Intake {
     /// Time up to which samples have been released.
     released: f64,
     newest: f64,
-    /// Per stream (a command or a signal), its newest time.
-    streams: BTreeMap<SampleKind, f64>,
+    /// Per stream (a command or a signal), its newest time and when it was last heard from
+    /// (on the arrival clock, s).
+    streams: BTreeMap<SampleKind, (f64, f64)>,
+    /// Live: the arrival clock now (s on any steady clock); None for a logged run.
+    pub clock: Option<f64>,
     pub counts: IntakeCounts,
 }
 
-/// A stream silent for this long behind the newest sample no longer holds the others back, s.
+/// A stream silent for this long no longer holds the others back, s: of the arrival clock when
+/// there is one (live), of data time behind the newest sample otherwise.
 const STALLED: f64 = 1.0;
 
 /// A key that orders times as numbers (times here are finite and ≥ 0).
@@ -42,22 +46,30 @@ fn key(time: f64) -> u64 {
 }
 
 impl Intake {
-    /// Takes a sample; drops it if it is late or repeats one.
-    pub fn push(&mut self, sample: Sample) {
+    /// Takes a sample; drops it if it is late (returning false) or repeats one.
+    pub fn push(&mut self, sample: Sample) -> bool {
         if sample.time < self.released {
             self.counts.late += 1;
-            return;
+            if matches!(sample.kind, SampleKind::Command(_)) {
+                self.counts.late_commands += 1;
+            }
+            return false;
         }
         if sample.time < self.newest {
             self.counts.reordered += 1;
         }
         self.newest = self.newest.max(sample.time);
-        let stream = self.streams.entry(sample.kind).or_insert(sample.time);
-        *stream = stream.max(sample.time);
+        let heard = self.clock.unwrap_or(sample.time);
+        let stream = self
+            .streams
+            .entry(sample.kind)
+            .or_insert((sample.time, heard));
+        *stream = (stream.0.max(sample.time), heard);
         let slot = (key(sample.time), sample.kind);
         if self.waiting.insert(slot, sample.value).is_some() {
             self.counts.duplicate += 1;
         }
+        true
     }
 
     /// The newest source time seen.
@@ -66,14 +78,17 @@ impl Intake {
     }
 
     /// How far every live stream has come: the oldest of the streams' newest times, among the
-    /// streams heard from within [`STALLED`] of the newest (a stream that stopped does not hold
-    /// the others back). Samples arrive in batches per stream; a shadow that waits for the
-    /// slowest live one takes them all in order however late the batches come.
+    /// streams heard from within [`STALLED`] (a stream that stopped does not hold the others
+    /// back). Samples arrive in batches per stream; a shadow that waits for the slowest live
+    /// one takes them all in order however late the batches come. Live, a stream's silence is
+    /// measured on the arrival clock: a machine that sends a second of one stream before the
+    /// next (a server that publishes per node) holds nothing up.
     pub fn watermark(&self) -> f64 {
+        let now = self.clock.unwrap_or(self.newest);
         self.streams
             .values()
-            .copied()
-            .filter(|&t| t >= self.newest - STALLED)
+            .filter(|&&(_, heard)| heard >= now - STALLED)
+            .map(|&(time, _)| time)
             .fold(self.newest, f64::min)
     }
 
@@ -120,6 +135,7 @@ mod tests {
             IntakeCounts {
                 processed: 2,
                 late: 1,
+                late_commands: 0,
                 duplicate: 1,
                 reordered: 1,
             }

@@ -69,8 +69,9 @@ pub struct Anomaly {
     pub detected: f64,
     /// When every test was released again; `None` while it lasts.
     pub end: Option<f64>,
-    /// The largest standardised shift of a signal's innovation during it, in standard
-    /// deviations of a healthy block mean.
+    /// The largest standardised shift during it: of a signal's innovation, in standard
+    /// deviations of a healthy block mean, or of a tracked parameter from its reference, in
+    /// standard deviations of their difference.
     pub size: f64,
     /// The parameter that explains it, if one moved significantly.
     pub attribution: Option<Attribution>,
@@ -119,6 +120,9 @@ pub struct IntakeCounts {
     pub processed: u64,
     /// Samples older than what had been processed: dropped.
     pub late: u64,
+    /// Of those, commands: the model ran under an older command for a while, so the state was
+    /// taken up again with the parameters held and the tests paused.
+    pub late_commands: u64,
     /// Samples repeating one already taken (same signal and time): dropped.
     pub duplicate: u64,
     /// Samples taken out of their arrival order.
@@ -133,8 +137,11 @@ pub struct Shadow {
     columns: PlantColumns,
     watched: Vec<String>,
     parameters: Vec<String>,
-    /// Per actuator, the command in force.
+    /// Per actuator, the command in force and its time (s since the first sample).
     commands: Vec<f64>,
+    command_times: Vec<f64>,
+    /// A command came too late to be used: the state is taken up again at the next step.
+    stale: bool,
     /// The filter's time, s since the first sample.
     time: f64,
     /// The first sample's source time, s.
@@ -177,6 +184,8 @@ impl Shadow {
         });
         Ok(Self {
             commands: vec![0.0; columns.actuators.len()],
+            command_times: vec![f64::NEG_INFINITY; columns.actuators.len()],
+            stale: false,
             filter,
             detector,
             intake: Intake::default(),
@@ -251,11 +260,18 @@ impl Shadow {
     pub fn command(&mut self, actuator: usize, time: f64, value: f64) {
         if actuator < self.commands.len() && value.is_finite() && time.is_finite() {
             let time = self.since_origin(time);
-            self.intake.push(Sample {
+            let sample = Sample {
                 kind: SampleKind::Command(actuator),
                 time,
                 value,
-            });
+            };
+            if !self.intake.push(sample) {
+                // Too late for the span it governed; still the newest command, it is in force.
+                if time > self.command_times[actuator] {
+                    (self.commands[actuator], self.command_times[actuator]) = (value, time);
+                }
+                self.stale = true;
+            }
         }
     }
 
@@ -293,6 +309,13 @@ impl Shadow {
     /// What the intake did so far.
     pub fn counts(&self) -> IntakeCounts {
         self.intake.counts
+    }
+
+    /// Live: the arrival clock now (seconds on a steady clock), by which a silent stream is
+    /// told from one whose batch is still coming. Without it (a logged run) silence is measured
+    /// in data time.
+    pub fn arrival_clock(&mut self, now: f64) {
+        self.intake.clock = Some(now);
     }
 
     /// Processes the samples that are `latency` behind the slowest live stream (each command and
@@ -346,18 +369,29 @@ impl Shadow {
             if time - self.time > MAX_GAP {
                 // Nothing came for a while (a lost connection): the state is anyone's guess,
                 // the parameters are not; the next samples set the state again.
-                self.filter.loosen();
-                self.detector.resume_after_gap(time);
+                self.stale = false;
+                self.reacquire(time);
                 self.gaps += 1;
-            } else if time > self.time {
-                self.filter
-                    .predict(&self.commands, self.time, time - self.time)?;
+            } else {
+                if time > self.time {
+                    self.filter
+                        .predict(&self.commands, self.time, time - self.time)?;
+                }
+                if std::mem::take(&mut self.stale) {
+                    // A command came after the span it governed was processed under another:
+                    // the parameters are held and the tests paused until the innovations
+                    // show the state caught up again.
+                    self.filter.hold = true;
+                    self.detector.resume_after(time, 0.0);
+                }
             }
             self.time = self.time.max(time);
             let mut observed = Vec::new();
             while let Some(sample) = samples.get(next).filter(|s| s.time == time) {
                 match sample.kind {
-                    SampleKind::Command(a) => self.commands[a] = sample.value,
+                    SampleKind::Command(a) => {
+                        (self.commands[a], self.command_times[a]) = (sample.value, time)
+                    }
                     SampleKind::Measurement(w) => observed.push((w, sample.value)),
                 }
                 next += 1;
@@ -367,6 +401,15 @@ impl Shadow {
             }
         }
         Ok(steps)
+    }
+
+    /// Takes the state up afresh from the next samples at `time` (after a gap, or a command
+    /// that came too late to be used): the positions and velocities loosened, the parameters
+    /// held and the tests paused until the innovations are back in their learnt band.
+    fn reacquire(&mut self, time: f64) {
+        self.filter.loosen();
+        self.filter.hold = true;
+        self.detector.resume_after(time, detector::REACQUIRE);
     }
 
     /// The filter's update with the values measured at `time`, and the detector's tests.
@@ -383,6 +426,7 @@ impl Shadow {
         let nis_per_dof = innovation.nis / z.len().max(1) as f64;
         let parameters = self.estimates();
         let change = self.detector.observe(time, &z, nis_per_dof, &parameters);
+        self.filter.hold = self.detector.reacquiring();
         Ok(ShadowStep {
             time,
             estimate: self.filter.estimate(time)?,
@@ -411,25 +455,35 @@ fn watched_signals(signals: &[String], names: &[String]) -> Result<Vec<usize>, S
         .collect()
 }
 
-/// Share of its value a parameter may drift by per √s.
+/// Share of its value (or of its scale) a parameter may drift by per √s.
 const DRIFT_SHARE: f64 = 0.02;
 /// A bias may grow by this many noise σ per √s (a slipped encoder is many σ within seconds).
 const BIAS_DRIFT: f64 = 3.0;
+/// A joint's effort scale without an effort limit, N·m or N; its speed scale without a velocity
+/// limit, rad/s or m/s.
+const EFFORT_SCALE: f64 = 10.0;
+const SPEED_SCALE: f64 = 1.0;
 
-/// Each knob's default drift per √s: [`DRIFT_SHARE`] of a mass, of a friction or damping or a
-/// tenth of the joint's effort limit (10 without one), whichever is larger, and [`BIAS_DRIFT`]
-/// noise σ for a bias.
+/// Each knob's default drift per √s, in its own unit: [`DRIFT_SHARE`] of a mass; of a friction
+/// or of its scale, a tenth of the joint's effort limit, whichever is larger; of a damping or of
+/// its scale, the damping that takes that tenth of the effort at a tenth of the joint's
+/// velocity limit, whichever is larger; and [`BIAS_DRIFT`] noise σ for a bias.
 fn default_drifts(knobs: &[model::Knob], noise: &[f64], model: &model::Model) -> Vec<f64> {
-    let effort = |joint: usize| {
-        let limit = model.mechanism.joints[joint].effort_limit;
-        0.1 * limit.filter(|l| l.is_finite()).unwrap_or(100.0)
+    let joint = |j: usize| &model.mechanism.joints[j];
+    let effort = |j: usize| {
+        let limit = joint(j).effort_limit.filter(|l| l.is_finite());
+        limit.map_or(EFFORT_SCALE, |l| 0.1 * l)
     };
+    let speed = |j: usize| joint(j).velocity_limit.map_or(SPEED_SCALE, |v| 0.1 * v);
     knobs
         .iter()
         .map(|knob| match knob {
             model::Knob::LinkMass { nominal, .. } => DRIFT_SHARE * nominal.mass,
-            model::Knob::JointDamping { joint } | model::Knob::JointFriction { joint } => {
+            model::Knob::JointFriction { joint } => {
                 DRIFT_SHARE * model.knob(knob).abs().max(effort(*joint))
+            }
+            model::Knob::JointDamping { joint } => {
+                DRIFT_SHARE * model.knob(knob).abs().max(effort(*joint) / speed(*joint))
             }
             model::Knob::SensorBias { watched } => BIAS_DRIFT * noise[*watched].sqrt(),
         })

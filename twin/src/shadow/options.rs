@@ -9,8 +9,6 @@ use crate::scenario::Scenario;
 /// Share of the largest acceleration an actuator can give that the model may be off by, per
 /// √s, when no `process_noise` is given.
 pub const DEFAULT_PROCESS_NOISE: f64 = 1e-3;
-/// Measurement noise assumed for a signal whose sensor declares none, SI.
-const NOISE_FLOOR: f64 = 1e-9;
 
 /// A scenario value the filter estimates as it goes: `urdf.link.<link>.mass`,
 /// `urdf.joint.<joint>.damping`, `urdf.joint.<joint>.friction` or `sensors.<signal>.bias`.
@@ -19,8 +17,9 @@ pub struct TrackedParameter {
     /// The scenario key.
     pub key: String,
     /// How fast it may change: its random walk's standard deviation per √s, SI (`None`: 2 % of
-    /// a mass, of a friction or damping or a tenth of the joint's effort limit, whichever is
-    /// larger, and ten times a biased signal's noise σ).
+    /// a mass, of a friction or of a tenth of the joint's effort limit, of a damping or of the
+    /// damping taking that at a tenth of its velocity limit, whichever is larger, and three
+    /// times a biased signal's noise σ).
     pub drift: Option<f64>,
 }
 
@@ -144,7 +143,8 @@ pub(super) fn knob(model: &Model, key: &str) -> Result<Knob, ShadowError> {
 }
 
 /// Measurement noise variance per watched signal: the option's, else the sensor's noise and
-/// quantisation, else [`NOISE_FLOOR`].
+/// quantisation; a signal with neither is refused (a filter told of no noise trusts every
+/// reading exactly and alarms on the first quantisation step).
 pub(super) fn noise(
     options: &ShadowOptions,
     scenario: &Scenario,
@@ -162,7 +162,7 @@ pub(super) fn noise(
             )));
         }
     }
-    Ok(names
+    names
         .iter()
         .map(|name| {
             let given = options.noise.iter().find(|(n, _)| n == name);
@@ -170,10 +170,17 @@ pub(super) fn noise(
             let declared = sensor.map_or(0.0, |s| {
                 (s.noise * s.noise + s.resolution * s.resolution / 12.0).sqrt()
             });
-            let sigma = given.map_or(declared, |(_, s)| *s).max(NOISE_FLOOR);
-            sigma * sigma
+            let sigma = given.map_or(declared, |(_, s)| *s);
+            if sigma > 0.0 {
+                return Ok(sigma * sigma);
+            }
+            Err(ShadowError::Option(format!(
+                "signal `{name}`: no noise σ: its sensor in the scenario declares neither noise \
+                 nor resolution; give --noise {name}=SIGMA (SI), or `noise` under \
+                 [sensors.\"{name}\"] in the scenario"
+            )))
         })
-        .collect())
+        .collect()
 }
 
 /// The knobs' drift variance per second and initial σ: the option's, else `defaults`.

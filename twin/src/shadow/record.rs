@@ -194,11 +194,20 @@ pub fn describe(change: &AnomalyChange) -> (EventLevel, String) {
         AnomalyChange::Opened(a) => ("detected", a),
         AnomalyChange::Closed(a) => ("ended", a),
     };
+    // Until it ends, the explanation is the parameter moving most so far; when it ends, the
+    // one the anomaly is put on (the summary's and the JSON's).
+    let (explained, unexplained) = match change {
+        AnomalyChange::Opened(_) => (
+            "so far explained by",
+            "no tracked parameter explains it yet",
+        ),
+        AnomalyChange::Closed(_) => ("explained by", "no tracked parameter explains it"),
+    };
     let cause = anomaly.attribution.as_ref().map_or_else(
-        || "no tracked parameter explains it".to_string(),
+        || unexplained.to_string(),
         |a| {
             format!(
-                "explained by {}: {:.6} → {:.6} (95 % {:.6} … {:.6}, {:+.1} σ)",
+                "{explained} {}: {:.6} → {:.6} (95 % {:.6} … {:.6}, {:+.1} σ)",
                 a.parameter, a.before, a.estimate, a.interval[0], a.interval[1], a.shift_sigmas
             )
         },

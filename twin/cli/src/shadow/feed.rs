@@ -17,6 +17,10 @@ use twin::StopFlag;
 
 /// How long the live loop waits for a sample before it looks at the stop flag again.
 const POLL: Duration = Duration::from_millis(20);
+/// Events taken from the link at most before the samples are processed.
+const DRAIN: usize = 100_000;
+/// Seconds the shadow may fall behind the machine (net of the clocks' offset) before it says so.
+pub const BEHIND: f64 = 1.0;
 
 /// What a column carries into the shadow.
 #[derive(Debug, Clone)]
@@ -51,8 +55,17 @@ pub enum Feed {
 pub struct Outcome {
     /// Wall-clock cost of each processed step, s.
     pub costs: Vec<f64>,
-    /// Live: wall-clock time from each step's source timestamp to its being recorded, s.
+    /// Live: wall-clock time from each step's source timestamp to its being recorded, s, net
+    /// of the clocks' offset.
     pub latencies: Vec<f64>,
+    /// Live: the machine's clock behind the shadow's, s: the least time from a sample's source
+    /// timestamp to its arrival (the clocks' offset and the fastest transport).
+    pub clock_offset: Option<f64>,
+    /// Live: spans the shadow fell more than [`BEHIND`] s behind the machine, (from, to) in
+    /// machine seconds since the first sample.
+    pub behind: Vec<(f64, Option<f64>)>,
+    /// Live: the most the shadow fell behind the machine, s.
+    pub most_behind: f64,
     /// Live: connection losses, (lost at, restored at) in machine seconds since the first
     /// sample.
     pub gaps: Vec<(f64, Option<f64>)>,
@@ -65,8 +78,10 @@ impl Feed {
     pub fn open(args: &ShadowArgs) -> Result<Self, Failure> {
         if let Some(path) = &args.data {
             let options = args.reading.options(&Default::default())?;
+            let data = RunData::read_with(path, &options)?;
+            check_span(&data, args.learn)?;
             return Ok(Feed::Data {
-                data: RunData::read_with(path, &options)?,
+                data,
                 bindings: Vec::new(),
             });
         }
@@ -153,12 +168,13 @@ impl Feed {
         &mut self,
         shadow: &mut Shadow,
         recording: &mut ShadowRecording,
+        publisher: Publisher,
         args: &ShadowArgs,
         stop: &StopFlag,
     ) -> Result<Outcome, Failure> {
         let mut sink = Sink {
             recording,
-            publisher: Publisher::start(args.publish.as_deref(), shadow)?,
+            publisher,
             outcome: Outcome::default(),
             live: matches!(self, Feed::Live { .. }),
         };
@@ -178,6 +194,26 @@ impl Feed {
         sink.publisher.stop();
         Ok(sink.outcome)
     }
+}
+
+/// Refuses a logged run with no rows, or no longer than `--learn` (all of it would be learnt
+/// as healthy and nothing tested).
+fn check_span(data: &RunData, learn: f64) -> Result<(), Failure> {
+    let (Some(first), Some(last)) = (data.time.first(), data.time.last()) else {
+        return Err(Failure::usage(format!(
+            "{}: no rows of samples: the shadow needs a logged run",
+            data.source
+        )));
+    };
+    let span = last - first;
+    if span <= learn {
+        return Err(Failure::usage(format!(
+            "{}: {span} s of data, no longer than --learn {learn} s (taken as healthy to set the \
+             tests): give a longer run or a shorter --learn",
+            data.source
+        )));
+    }
+    Ok(())
 }
 
 /// The link's options from the command line: security, PKI, user and timeout.
@@ -238,8 +274,39 @@ impl Sink<'_> {
             self.outcome.costs.push(cost);
             if self.live {
                 let source = shadow.origin().unwrap_or(0.0) + step.time;
-                self.outcome.latencies.push(now() - source);
+                let offset = self.outcome.clock_offset.unwrap_or(0.0);
+                let late = (now() - source - offset).max(0.0);
+                self.outcome.latencies.push(late);
+                self.keep_pace(step.time, late)?;
             }
+        }
+        Ok(())
+    }
+
+    /// Notes when the shadow falls more than [`BEHIND`] s behind the machine and when it has
+    /// caught up (its samples are all processed, only later: nothing is dropped for it).
+    fn keep_pace(&mut self, time: f64, late: f64) -> Result<(), Failure> {
+        self.outcome.most_behind = self.outcome.most_behind.max(late);
+        let open = self
+            .outcome
+            .behind
+            .last()
+            .is_some_and(|(_, to)| to.is_none());
+        if late > BEHIND && !open {
+            self.outcome.behind.push((time, None));
+            let text = format!(
+                "behind: the shadow is {late:.1} s behind the machine (this computer is busy); \
+                 it catches up, dropping nothing"
+            );
+            eprintln!("t = {time:.3} s: {text}");
+            self.recording.note(time, EventLevel::Warning, &text)?;
+        } else if late < 0.5 * BEHIND && open {
+            if let Some(span) = self.outcome.behind.last_mut() {
+                span.1 = Some(time);
+            }
+            let text = "caught up with the machine";
+            eprintln!("t = {time:.3} s: {text}");
+            self.recording.note(time, EventLevel::Info, text)?;
         }
         Ok(())
     }
@@ -311,45 +378,73 @@ fn watch(
     // A gap is marked on the machine's clock: from the newest sample before the loss to the
     // first one after the restoration.
     let mut restoring = false;
+    let clock = Instant::now();
     while !stopping(stop, shadow, args, &mut sink.outcome) {
-        let Some(event) = link.recv(POLL) else {
+        let Some(first) = link.recv(POLL) else {
             continue;
         };
-        match event {
-            LinkEvent::Sample {
-                node,
-                source_time,
-                value,
-            } => {
-                match bindings.get(node) {
-                    Some(Binding::Command(a, factor)) => {
-                        shadow.command(*a, source_time, value * factor)
-                    }
-                    Some(Binding::Measured(name, factor)) => {
-                        shadow.measurement(name, source_time, value * factor)
-                    }
-                    _ => {}
-                }
-                if std::mem::take(&mut restoring) {
-                    restored(sink, shadow.newest().unwrap_or(0.0))?;
-                }
-            }
-            LinkEvent::Lost { reason, .. } => {
-                let time = shadow.newest().unwrap_or(0.0);
-                sink.outcome.gaps.push((time, None));
-                let text = format!("connection to the machine lost: {reason}; reconnecting");
-                eprintln!("{text}");
-                sink.recording.note(time, EventLevel::Warning, &text)?;
-            }
-            LinkEvent::Restored { attempts, .. } => {
-                eprintln!("connection to the machine restored after {attempts} tries");
-                restoring = true;
-            }
-            LinkEvent::Refused { node, reason } => eprintln!("node {node}: {reason}"),
+        // Everything the link holds is taken in before the samples are processed: a publish
+        // response that carries one node's second of samples before the next node's is then
+        // taken whole, and the slow stream is not left behind.
+        shadow.arrival_clock(clock.elapsed().as_secs_f64());
+        let mut event = Some(first);
+        for _ in 0..DRAIN {
+            let Some(taken) = event.take() else { break };
+            take_event(taken, bindings, shadow, sink, &mut restoring)?;
+            event = link.recv(Duration::ZERO);
+        }
+        if let Some(taken) = event {
+            take_event(taken, bindings, shadow, sink, &mut restoring)?;
         }
         let start = Instant::now();
         let steps = shadow.advance()?;
         sink.take(shadow, steps, start)?;
+    }
+    Ok(())
+}
+
+/// Takes one event from the link: a sample into the shadow, a loss or a restoration noted.
+fn take_event(
+    event: LinkEvent,
+    bindings: &[Binding],
+    shadow: &mut Shadow,
+    sink: &mut Sink,
+    restoring: &mut bool,
+) -> Result<(), Failure> {
+    match event {
+        LinkEvent::Sample {
+            node,
+            source_time,
+            value,
+        } => {
+            let arrived = now() - source_time;
+            let offset = sink.outcome.clock_offset.get_or_insert(arrived);
+            *offset = offset.min(arrived);
+            match bindings.get(node) {
+                Some(Binding::Command(a, factor)) => {
+                    shadow.command(*a, source_time, value * factor)
+                }
+                Some(Binding::Measured(name, factor)) => {
+                    shadow.measurement(name, source_time, value * factor)
+                }
+                _ => {}
+            }
+            if std::mem::take(restoring) {
+                restored(sink, shadow.newest().unwrap_or(0.0))?;
+            }
+        }
+        LinkEvent::Lost { reason, .. } => {
+            let time = shadow.newest().unwrap_or(0.0);
+            sink.outcome.gaps.push((time, None));
+            let text = format!("connection to the machine lost: {reason}; reconnecting");
+            eprintln!("{text}");
+            sink.recording.note(time, EventLevel::Warning, &text)?;
+        }
+        LinkEvent::Restored { attempts, .. } => {
+            eprintln!("connection to the machine restored after {attempts} tries");
+            *restoring = true;
+        }
+        LinkEvent::Refused { node, reason } => eprintln!("node {node}: {reason}"),
     }
     Ok(())
 }

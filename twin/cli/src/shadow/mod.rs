@@ -141,9 +141,11 @@ pub fn shadow(args: &ShadowArgs, registry: &Registry) -> Result<ExitCode, Failur
     let summary_file = crate::run::summary_file(args.summary.as_deref(), &out)?;
     let live = args.connect.clone().map(LiveViewer::Connect);
     let id = format!("{}-shadow-{}", shadow.scenario_name(), feed.digest());
+    // The server is bound before the recording is made: a refused --publish leaves no file.
+    let publisher = publish::Publisher::start(args.publish.as_deref(), &shadow)?;
     let mut recording = ShadowRecording::create(&out, &shadow, &id, live)?;
     let stop = stop_on_signals()?;
-    let outcome = feed.run(&mut shadow, &mut recording, args, &stop);
+    let outcome = feed.run(&mut shadow, &mut recording, publisher, args, &stop);
     let outcome = match outcome {
         Ok(outcome) => outcome,
         Err(failure) => {
@@ -170,6 +172,13 @@ fn default_signals(
         .filter(|s| sensed.contains(s))
         .cloned()
         .collect();
+    if given.is_empty() {
+        return Err(Failure::usage(format!(
+            "the machine gives none of the signals the scenario's model predicts ({}): check its \
+             columns' or nodes' names against the scenario's signals",
+            Shadow::watchable(builder.clone().build(registry)?)?.join(", ")
+        )));
+    }
     if chosen.is_empty() {
         return Err(Failure::usage(format!(
             "no signal to watch by default (those the machine gives and the model predicts with a \
@@ -191,6 +200,13 @@ fn check_numbers(args: &ShadowArgs) -> Result<(), Failure> {
     if let Some(duration) = args.duration.filter(|d| !(d.is_finite() && *d > 0.0)) {
         return Err(Failure::usage(format!(
             "--duration {duration}: must be a positive number of seconds"
+        )));
+    }
+    if let Some(duration) = args.duration.filter(|d| *d <= args.learn) {
+        return Err(Failure::usage(format!(
+            "--duration {duration}: no longer than --learn {} s (taken as healthy to set the \
+             tests): nothing would be tested",
+            args.learn
         )));
     }
     if !(args.connect_timeout.is_finite() && args.connect_timeout > 0.0) {

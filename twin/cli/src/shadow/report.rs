@@ -29,6 +29,9 @@ fn summary_json(shadow: &Shadow, outcome: &Outcome) -> serde_json::Value {
     let gaps: Vec<_> = (outcome.gaps.iter())
         .map(|(lost, restored)| json!({"lost": lost, "restored": restored}))
         .collect();
+    let behind: Vec<_> = (outcome.behind.iter())
+        .map(|(from, to)| json!({"from": from, "to": to}))
+        .collect();
     json!({
         "scenario": shadow.scenario_name(),
         "signals": shadow.watched(),
@@ -42,6 +45,8 @@ fn summary_json(shadow: &Shadow, outcome: &Outcome) -> serde_json::Value {
         "cost_us": {"p50": quantile_us(&outcome.costs, 0.5), "p99": quantile_us(&outcome.costs, 0.99)},
         "latency_us": {"p50": quantile_us(&outcome.latencies, 0.5),
                        "p99": quantile_us(&outcome.latencies, 0.99)},
+        "clock_offset_s": outcome.clock_offset,
+        "behind": {"spans": behind, "most_s": outcome.most_behind},
         "connection_gaps": gaps,
         "sample_gaps": shadow.gaps(),
         "interrupted_by_signal": outcome.interrupted,
@@ -98,6 +103,7 @@ pub fn finish(
             1.96 * sigma
         ));
     }
+    text.push_str(&live_lines(shadow, outcome));
     if let Some(p50) = quantile_us(&outcome.costs, 0.5) {
         text.push_str(&format!(
             "estimator + detector: {p50:.0} µs per update (median; an update takes the values measured at one time)\n"
@@ -118,4 +124,32 @@ pub fn finish(
         }
         None => ExitCode::SUCCESS,
     })
+}
+
+/// Live: the clocks' offset, the latency net of it, how far behind the shadow fell and what it
+/// did with commands that came too late.
+fn live_lines(shadow: &Shadow, outcome: &Outcome) -> String {
+    let mut text = String::new();
+    if let Some(offset) = outcome.clock_offset {
+        text.push_str(&format!(
+            "machine clock: {offset:.6} s behind this computer's (offset and fastest transport); \
+             latency beyond it {:.0} µs median, {:.0} µs p99\n",
+            quantile_us(&outcome.latencies, 0.5).unwrap_or(0.0),
+            quantile_us(&outcome.latencies, 0.99).unwrap_or(0.0)
+        ));
+        text.push_str(&format!(
+            "behind the machine: at most {:.2} s, {} times more than {:.0} s; nothing dropped for it\n",
+            outcome.most_behind,
+            outcome.behind.len(),
+            super::feed::BEHIND
+        ));
+    }
+    let late = shadow.counts().late_commands;
+    if late > 0 {
+        text.push_str(&format!(
+            "{late} commands came too late to be used: each time the state was taken up again \
+             with the parameters held and the tests paused\n"
+        ));
+    }
+    text
 }
