@@ -562,18 +562,22 @@ fn restart_faults(summary: &Value, joined: f64, speed: f64) -> Vec<String> {
 /// Data time of the restart, s; wall seconds down; shadow seconds run.
 const RESTART: f64 = 15.0;
 const DOWN: f64 = 2.0;
-const RESTARTED_RUN: f64 = 34.0;
+const RESTARTED_RUN: f64 = 60.0;
 
 // Measured (release, alone): lost and restored after 6 tries (the back-off reaches the server
 // ≈ 1 s after it is up); the gap, longer than the shadow's MAX_GAP, takes the state up afresh
-// from the next samples and pauses the tests for 2 s: no anomaly, the estimates kept. 19 s wall.
-// The run stops at 34 s, clear of the end of the machine's 40 s of data.
+// from the next samples with the parameters held, and the tests resume once the innovations
+// are back in their band: no anomaly, the estimates kept. With two CPU hogs beside it the
+// server once took long enough to come up that the back-off's next try was 6.3 s (19 s of data)
+// after the stop: the run goes on to 60 s, clear of the end of the machine's 70 s of data, so
+// that there are ≥ 5 s of data after even that. Before the parameters were held, the ram's
+// mass moved after one restart in three (5.0 → 4.4 kg at −4.9 σ, an anomaly).
 
 #[test]
 fn live_the_shadow_rides_out_a_server_restart() {
     let _exclusive = exclusive();
     let dir = scratch("shadow", "live-restart");
-    generate(&dir, "healthy", 40.0, None);
+    generate(&dir, "healthy", 70.0, None);
     let port = free_port();
     std::fs::write(dir.join("map.toml"), map(port, "deg")).unwrap();
     let speed = 3.0;
@@ -786,4 +790,45 @@ fn listing(dir: &Path) -> Vec<String> {
         .collect();
     names.sort();
     names
+}
+
+// Measured (release): 1.2 s for 12 s of data, as at zero turns; before, the first correction
+// walked the loops from 0 to 1e7 rad in 0.05 rad steps (1e5 rad took 9 s, 1e7 never ended).
+
+#[test]
+fn data_a_crank_a_million_turns_on_is_watched_as_at_zero() {
+    let _shared = shared();
+    let dir = scratch("shadow", "data-turns");
+    generate(&dir, "healthy", 12.0, None);
+    let csv = std::fs::read_to_string(dir.join("healthy.csv")).unwrap();
+    let mut lines = csv.lines();
+    let header = lines.next().unwrap();
+    let column = (header
+        .split(',')
+        .position(|c| c.starts_with("crank.position [")))
+    .expect("a crank.position column");
+    let turns = 1_591_549.0 * std::f64::consts::TAU; // ≈ 1e7 rad
+    let mut shifted = vec![header.to_string()];
+    for line in lines {
+        let mut cells: Vec<String> = line.split(',').map(String::from).collect();
+        let angle: f64 = cells[column].parse().unwrap();
+        cells[column] = format!("{:?}", angle + turns);
+        shifted.push(cells.join(","));
+    }
+    std::fs::write(dir.join("turned.csv"), shifted.join("\n") + "\n").unwrap();
+    let mut args: Vec<String> = ["shadow", "healthy.toml", "--data", "turned.csv"]
+        .map(String::from)
+        .into();
+    args.extend(watching());
+    args.extend(["--out", "shadow.rrd", "--summary", "shadow.json"].map(String::from));
+    // A guard against the hang, not a speed bound: it takes about a second.
+    let output = finished_within(
+        Command::new(env!("CARGO_BIN_EXE_twin"))
+            .args(&args)
+            .current_dir(&dir),
+        Duration::from_secs(300),
+    );
+    assert!(output.status.success(), "{}", text(&output.stderr));
+    let summary = read_json(&dir.join("shadow.json"));
+    assert!(anomalies(&summary).is_empty(), "{summary:#}");
 }

@@ -18,7 +18,7 @@
 use super::dynamics::{HeldLoad, Inputs};
 use super::exact::{ExactEngine, ExactSettings};
 use super::{Load, MechanismState};
-use crate::mechanism::{Inertial, Mechanism};
+use crate::mechanism::{Inertial, JointMotion, Mechanism};
 use nalgebra::{DMatrix, DVector};
 
 /// Newton iterations that bring the dependent coordinates onto the loops.
@@ -201,19 +201,49 @@ impl ReducedDynamics {
     /// Recenters on `to` by way of `from` (a state the solves are centred near), in steps of at
     /// most [`CONTINUATION_STEP`] in any coordinate, so that a large move (a filter's first
     /// correction) follows the loops' branch instead of jumping to another assembly.
+    ///
+    /// A coordinate that turns freely (an unlimited revolute joint) is walked the shorter way to
+    /// the angle `to` gives, modulo a turn, and set to `to` from there: the loops close the same
+    /// every turn, so a crank a million turns on costs no more than one a degree on.
     pub fn recenter_along(&mut self, from: &[f64], to: &[f64]) -> Result<(), ReducedError> {
         let k = self.independent.len();
-        let largest = (0..k).fold(0.0_f64, |m, i| m.max((to[i] - from[i]).abs()));
+        let via: Vec<f64> = (0..k)
+            .map(|i| match self.turns_freely(i) {
+                true => {
+                    let d = to[i] - from[i];
+                    from[i] + (d - std::f64::consts::TAU * (d / std::f64::consts::TAU).round())
+                }
+                false => to[i],
+            })
+            .collect();
+        let largest = (0..k).fold(0.0_f64, |m, i| m.max((via[i] - from[i]).abs()));
         let steps = (largest / CONTINUATION_STEP).ceil().max(1.0) as usize;
         let mut x = to.to_vec();
         for step in 1..=steps {
             let share = step as f64 / steps as f64;
             for i in 0..k {
-                x[i] = from[i] + share * (to[i] - from[i]);
+                x[i] = from[i] + share * (via[i] - from[i]);
             }
             self.recenter(&x)?;
         }
+        if via[..] != to[..k] {
+            self.recenter(to)?;
+        }
         Ok(())
+    }
+
+    /// Whether independent coordinate `i` is an unlimited revolute joint's.
+    fn turns_freely(&self, i: usize) -> bool {
+        let model = &self.engine.model;
+        let g = self.independent[i];
+        let joint = model.dof_of_joint.iter().position(|d| *d == Some(g));
+        let revolute = joint.is_some_and(|j| {
+            matches!(
+                model.mechanism.joints[j].motion,
+                JointMotion::Revolute { .. }
+            )
+        });
+        revolute && model.limits[g].is_none()
     }
 
     /// Starts later loop-closure solves from `positions` (per tree joint, URDF sense): an

@@ -168,6 +168,24 @@ def say(text):
     print(text, flush=True)
 
 
+async def stopped(server):
+    """Stops the server so that every session dies. asyncua's stop closes the sessions' transports
+    and only then the listening socket, and waits for every connection to end: a client
+    reconnecting in between (the shadow does, 0.1 s after it lost its session) is accepted,
+    never closed, and the stop waits forever. So the listener is closed first, and connections
+    still open after a while are aborted."""
+    binary = server.bserver
+    if binary is not None and binary._server is not None:
+        binary._server.close()
+    stopping = asyncio.ensure_future(server.stop())
+    while True:
+        done, _ = await asyncio.wait({stopping}, timeout=1.0)
+        if done:
+            return
+        for transport in list(binary.iserver.asyncio_transports):
+            transport.abort()
+
+
 async def play(args):
     times, columns = read_run(args.csv)
     names = args.columns.split(",") if args.columns else list(columns)
@@ -200,7 +218,7 @@ async def play(args):
             i += 1
         if clock >= restart_at:
             restart_at, wake = float("inf"), time.monotonic() + args.down
-            await server.stop()
+            await stopped(server)
             say("down")
             server, nodes = spare
             await asyncio.sleep(max(0.0, wake - time.monotonic()))
