@@ -24,10 +24,11 @@ async def connect(url, prepare=None):
 
 
 async def final_state(client, ns):
-    """`status.state` once it is no longer `running` (it is published just after the last
-    Advance returns, once the recording is finished), or the last read after 1 s."""
+    """`status.state` once it is no longer `running` (it is published after the last Advance
+    returns, once the recording is finished: more than a second later on a loaded machine), or
+    the last read after 10 s."""
     state = client.get_node(ua.NodeId("status.state", ns))
-    for _ in range(100):
+    for _ in range(1000):
         value = await state.read_value()
         if value != "running":
             break

@@ -1,6 +1,7 @@
 //! `twin serve` against an OPC UA stack the twin did not write (Python asyncua, from
 //! `scripts/test-tools`): lockstep commands and reads checked against the twin's own open-loop
-//! response, read-only signals, the recording after the server ends; and wall-clock pacing.
+//! response, read-only signals, the recording after the server ends; a subscriber that gets
+//! every control update with its source timestamp; and wall-clock pacing.
 
 mod common;
 
@@ -181,6 +182,81 @@ fn a_python_client_drives_the_crank_in_lockstep() {
     );
     common::verify(&dir.join("run.rrd"));
     assert!(common::parts(&dir).is_empty());
+}
+
+/// Control updates in the subscribed run: 2 s at the crank's 1 ms control period, both ends.
+const SUBSCRIBED_UPDATES: u64 = 2001;
+
+/// A subscriber asking sampling 0 and a queue gets every control update of a lockstep run, in
+/// order, each with its own source timestamp: the run's simulated time mapped to the wall
+/// clock, one control period apart. The client advances 250 periods at a time and waits for
+/// them to arrive, so a loaded machine only makes the test slower.
+#[test]
+fn a_subscriber_gets_every_control_update_with_its_source_timestamp() {
+    let dir = scratch("serve", "every-update");
+    let port = free_port();
+    let url = format!("opc.tcp://127.0.0.1:{port}");
+    let args = ["whitworth-crank-pi", "--lockstep", "--opcua", &url];
+    let server = serve(&[&args[..], &["--duration", "2"]].concat(), &dir);
+    let client = finished(
+        Command::new(tools_python())
+            .arg(Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/serve/subscriber.py"))
+            .args([&url, "whitworth", "crank.position", "1000", "seen.json"])
+            .args(["lockstep", "250"])
+            .current_dir(&dir),
+    );
+    let served = ended(server);
+    let stderr = String::from_utf8_lossy(&served.stderr);
+    assert!(
+        client.status.success() && served.status.success(),
+        "client ({}): {}\nserver ({}): {stderr}",
+        client.status,
+        String::from_utf8_lossy(&client.stderr),
+        served.status
+    );
+    let listening: Vec<&str> = stderr.lines().filter(|l| l.contains("listening")).collect();
+    let line = format!(
+        "listening on opc.tcp://127.0.0.1:{port}/ (machine nsu=urn:twin:whitworth;s=whitworth)"
+    );
+    assert_eq!(listening, [line.as_str()], "{stderr}");
+    let seen: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.join("seen.json")).unwrap()).unwrap();
+    for (item, revised) in seen["revised"].as_object().unwrap() {
+        assert_eq!(revised["sampling_ms"], 1.0, "{item}: {revised}");
+        assert_eq!(revised["queue"], 1000, "{item}: {revised}");
+    }
+    assert_eq!(seen["state"], "finished");
+    assert_eq!(seen["updates"], SUBSCRIBED_UPDATES);
+    assert_eq!(seen["received"], SUBSCRIBED_UPDATES);
+    let periods = notifications(&seen, "status.period");
+    let expected: Vec<f64> = (0..SUBSCRIBED_UPDATES).map(|p| p as f64).collect();
+    assert_eq!(periods.iter().map(|n| n.1).collect::<Vec<_>>(), expected);
+    let stamps: Vec<i64> = periods.iter().map(|n| n.0).collect();
+    let start = stamps[0];
+    for (period, stamp) in stamps.iter().enumerate() {
+        assert_eq!(stamp - start, period as i64 * 1000, "period {period}: µs");
+    }
+    // status.time is the simulated time the stamps map; the signal comes with every update.
+    for (stamp, time) in notifications(&seen, "status.time") {
+        assert!(
+            (time - (stamp - start) as f64 * 1e-6).abs() < 1e-9,
+            "{time} at {stamp}"
+        );
+    }
+    let positions = notifications(&seen, "crank.position");
+    assert_eq!(positions.iter().map(|n| n.0).collect::<Vec<_>>(), stamps);
+    assert!(positions.iter().any(|n| n.1 != positions[0].1));
+}
+
+/// An item's notifications: (source timestamp in µs since the UNIX epoch, value), none with
+/// the overflow bit.
+fn notifications(seen: &serde_json::Value, item: &str) -> Vec<(i64, f64)> {
+    (seen["items"][item].as_array().unwrap().iter())
+        .map(|n| {
+            assert_eq!(n[2], false, "{item}: overflow at {n}");
+            (n[0].as_i64().unwrap(), n[1].as_f64().unwrap())
+        })
+        .collect()
 }
 
 #[test]

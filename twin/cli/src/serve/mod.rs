@@ -8,6 +8,7 @@ pub(crate) mod endpoint;
 mod error;
 mod pacing;
 mod publisher;
+mod sampling;
 pub(crate) mod security;
 mod server;
 mod shared;
@@ -120,6 +121,8 @@ pub fn serve(args: &ServeArgs, registry: &Registry) -> Result<ExitCode, Failure>
         .unwrap_or_else(|| PathBuf::from(format!("{}.rrd", loaded.scenario.name)));
     let summary_file = crate::run::summary_file(args.summary.as_deref(), &out)?;
     let machine = loaded.scenario.machine.clone();
+    // The period the run updates its controller at: whole physics steps.
+    let control_period = loaded.scenario.control_every() as f64 * loaded.scenario.dt;
     let server = OpcUaServer::bind(endpoint, security)?;
     if let Some(line) = server.describe() {
         eprintln!("{line}");
@@ -136,7 +139,15 @@ pub fn serve(args: &ServeArgs, registry: &Registry) -> Result<ExitCode, Failure>
     } else {
         Pace::WallClock(Pacing::new(args.rate))
     };
-    let mut publisher = Publisher::new(server, &machine, shared, pace, stop, commanding);
+    let mut publisher = Publisher::new(
+        server,
+        &machine,
+        shared,
+        pace,
+        control_period,
+        stop,
+        commanding,
+    );
     let result = twin.run_with(Some(&out), &mut [&mut publisher]);
     let misses = publisher.deadline_misses();
     let result = result?;

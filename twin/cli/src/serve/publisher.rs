@@ -1,12 +1,14 @@
 //! The observer of a served run: starts the server on the run's names, publishes the measured
 //! signals (and the scenario's controller's commands, when it is inside) and the status at each
-//! control update, and paces the run (wall clock or lockstep).
+//! control update, stamped with its simulated time mapped to the wall clock, and paces the run
+//! (wall clock or lockstep).
 
 use super::address_space::Commanding;
 use super::pacing::Pacing;
+use super::sampling::SourceClock;
 use super::server::{OpcUaServer, Published};
 use super::shared::Shared;
-use opcua::types::{DataValue, Variant};
+use opcua::types::{DataValue, DateTime, Variant};
 use std::sync::Arc;
 use twin::{Findings, Observer, ObserverError, RunSummary, SignalLayout, StepView, StopFlag};
 
@@ -28,6 +30,12 @@ pub struct Publisher {
     stop: StopFlag,
     commanding: Commanding,
     published: Option<Published>,
+    /// The scenario's control period, s.
+    control_period: f64,
+    /// The source timestamps of the published values.
+    clock: SourceClock,
+    /// The simulated time of the last control update published, s.
+    last_update: f64,
     /// Control updates reached so far.
     updates: u64,
     /// The text of the run's last event, published as `status.last_event`.
@@ -35,15 +43,21 @@ pub struct Publisher {
 }
 
 impl Publisher {
-    /// A publisher serving `machine` on `server`, its actuators commanded as `commanding` says.
+    /// A publisher serving `machine` on `server`, its actuators commanded as `commanding` says,
+    /// every `control_period` s of simulated time.
     pub fn new(
         server: OpcUaServer,
         machine: &str,
         shared: Arc<Shared>,
         pace: Pace,
+        control_period: f64,
         stop: StopFlag,
         commanding: Commanding,
     ) -> Self {
+        let rate = match &pace {
+            Pace::WallClock(pacing) => pacing.rate(),
+            Pace::Lockstep => 1.0,
+        };
         Self {
             server,
             machine: machine.to_string(),
@@ -52,6 +66,9 @@ impl Publisher {
             stop,
             commanding,
             published: None,
+            control_period,
+            clock: SourceClock::new(rate),
+            last_update: 0.0,
             updates: 0,
             last_event: String::new(),
         }
@@ -65,16 +82,18 @@ impl Publisher {
         }
     }
 
-    /// Publishes how the run ended and hands back the server, to be stopped.
-    pub fn ended(self, summary: &RunSummary) -> OpcUaServer {
+    /// Publishes how the run ended, stamped one control period after its last control update,
+    /// and hands back the server, to be stopped.
+    pub fn ended(mut self, summary: &RunSummary) -> OpcUaServer {
         let state = match (&summary.failure, &summary.interrupted) {
             (Some(_), _) => "diverged",
             (None, Some(_)) => "interrupted",
             (None, None) => "finished",
         };
+        let stamp = self.clock.stamp(self.last_update + self.control_period);
         if let Some(published) = &self.published {
             let id = &published.nodes.status[3];
-            let value = DataValue::new_now(Variant::from(state));
+            let value = stamped(Variant::from(state), stamp);
             // The run is over either way; a client that misses the last state sees the run end.
             let _ = published
                 .manager
@@ -87,6 +106,8 @@ impl Publisher {
         if let Some(event) = view.events.last() {
             self.last_event.clone_from(&event.text);
         }
+        let stamp = self.clock.stamp(view.time);
+        self.last_update = view.time;
         let Some(published) = &self.published else {
             return Ok(());
         };
@@ -106,11 +127,19 @@ impl Publisher {
         let values = signals
             .chain(efforts)
             .chain(nodes.status.iter().zip(status))
-            .map(|(id, value)| (id, None, DataValue::new_now(value)));
+            .map(|(id, value)| (id, None, stamped(value, stamp)));
         published
             .manager
             .set_values(&published.subscriptions, values)
             .map_err(|status| format!("cannot publish the run's values: {status}").into())
+    }
+}
+
+/// `value` with source timestamp `source`, received by the server now.
+fn stamped(value: Variant, source: DateTime) -> DataValue {
+    DataValue {
+        source_timestamp: Some(source),
+        ..DataValue::new_now(value)
     }
 }
 
@@ -134,8 +163,13 @@ fn log_miss(shared: &Shared, misses: u64, time: f64, late: f64) {
 
 impl Observer for Publisher {
     fn start(&mut self, layout: &SignalLayout) -> Result<(), ObserverError> {
-        self.published =
-            Some((self.server).start(&self.machine, layout, &self.shared, self.commanding)?);
+        self.published = Some((self.server).start(
+            &self.machine,
+            layout,
+            &self.shared,
+            self.commanding,
+            self.control_period,
+        )?);
         Ok(())
     }
 

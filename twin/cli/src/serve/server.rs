@@ -7,6 +7,7 @@
 use super::address_space::{self, Commanding, Nodes};
 use super::endpoint::Endpoint;
 use super::error::ServeError;
+use super::sampling;
 use super::security::{self, Pki, Refusal, Security};
 use super::shared::Shared;
 use opcua::server::authenticator::{
@@ -138,13 +139,15 @@ impl OpcUaServer {
     }
 
     /// Builds the address space of `machine` (its commands as `commanding` has them) and starts
-    /// serving it.
+    /// serving it, sampling at every control update (`control_period`, s); prints one line on
+    /// stderr with the URL once connections are accepted.
     pub fn start(
         &mut self,
         machine: &str,
         layout: &SignalLayout,
         shared: &Arc<Shared>,
         commanding: Commanding,
+        control_period: f64,
     ) -> Result<Published, ServeError> {
         let listener = self
             .listener
@@ -158,9 +161,10 @@ impl OpcUaServer {
             advertised_host(&self.endpoint),
             self.endpoint.addr.port()
         );
+        let builder = sampling::limits(ServerBuilder::new(), control_period);
         let (server, handle) = self
-            .configure(ServerBuilder::new())
-            .discovery_urls(vec![url])
+            .configure(builder)
+            .discovery_urls(vec![url.clone()])
             .with_node_manager(simple_node_manager(
                 NamespaceMetadata {
                     namespace_uri: namespace.clone(),
@@ -186,6 +190,7 @@ impl OpcUaServer {
             .map_err(|e| ServeError::Server(e.to_string()))?;
         let task = self.runtime.spawn(server.run_with(listener));
         self.running = Some((handle, task));
+        eprintln!("listening on {url} (machine nsu={namespace};s={machine})");
         Ok(Published {
             manager,
             subscriptions,
