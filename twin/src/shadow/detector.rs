@@ -261,10 +261,12 @@ impl Detector {
         nis_per_dof: f64,
         knobs: &[(f64, f64)],
     ) -> Option<AnomalyChange> {
-        let start = *self.start.get_or_insert(time);
+        // Learning starts once the state is acquired: the first samples' innovations, while
+        // the filter finds the machine, say nothing of its health.
         if !self.reacquired(time, z) {
             return None;
         }
+        let start = *self.start.get_or_insert(time);
         if self.learning {
             if time < start + self.setup.learn {
                 for &(s, value) in z {

@@ -142,6 +142,8 @@ pub struct Shadow {
     command_times: Vec<f64>,
     /// A command came too late to be used: the state is taken up again at the next step.
     stale: bool,
+    /// Whether a sample has been processed.
+    started: bool,
     /// The filter's time, s since the first sample.
     time: f64,
     /// The first sample's source time, s.
@@ -186,6 +188,7 @@ impl Shadow {
             commands: vec![0.0; columns.actuators.len()],
             command_times: vec![f64::NEG_INFINITY; columns.actuators.len()],
             stale: false,
+            started: false,
             filter,
             detector,
             intake: Intake::default(),
@@ -366,7 +369,12 @@ impl Shadow {
         let mut next = 0;
         while let Some(first) = samples.get(next) {
             let time = first.time;
-            if time - self.time > MAX_GAP {
+            if !std::mem::replace(&mut self.started, true) {
+                // The first samples place the machine (joined mid-run, a crank many turns on):
+                // the parameters are held until the state is acquired.
+                self.filter.hold = true;
+                self.detector.resume_after(time, 0.0);
+            } else if time - self.time > MAX_GAP {
                 // Nothing came for a while (a lost connection): the state is anyone's guess,
                 // the parameters are not; the next samples set the state again.
                 self.stale = false;

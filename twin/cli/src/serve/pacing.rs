@@ -25,11 +25,6 @@ impl Pacing {
         }
     }
 
-    /// Simulated seconds per wall-clock second.
-    pub fn rate(&self) -> f64 {
-        self.rate
-    }
-
     /// Sleeps until simulated `time`'s wall deadline, or counts a miss when it has passed and
     /// returns how late, s.
     pub fn wait_until(&mut self, time: f64) -> Option<f64> {

@@ -54,10 +54,6 @@ impl Publisher {
         stop: StopFlag,
         commanding: Commanding,
     ) -> Self {
-        let rate = match &pace {
-            Pace::WallClock(pacing) => pacing.rate(),
-            Pace::Lockstep => 1.0,
-        };
         Self {
             server,
             machine: machine.to_string(),
@@ -67,7 +63,7 @@ impl Publisher {
             commanding,
             published: None,
             control_period,
-            clock: SourceClock::new(rate),
+            clock: SourceClock::default(),
             last_update: 0.0,
             updates: 0,
             last_event: String::new(),

@@ -1,9 +1,11 @@
 //! How the served values reach subscribers: every control update is a sample. The server's
 //! limits follow the scenario's control period (sampling intervals down to one control period,
 //! zero revised to it; per-item queues that hold [`BACKLOG`] of control updates), and each
-//! control update's values carry its simulated time mapped to the wall clock as their source
-//! timestamp, so that successive updates are exactly one control period (over the rate) apart
-//! and pass async-opcua's sampling-interval filter, which compares source timestamps.
+//! control update's values carry its simulated time, counted from the wall-clock time of the
+//! first update, as their source timestamp: the machine's own clock, whatever `--rate` or
+//! lockstep does to the wall clock's pace. Successive updates are then exactly one control
+//! period apart, which passes async-opcua's sampling-interval filter (it compares source
+//! timestamps), and a shadow watching the served machine reads machine time from them.
 
 use opcua::server::ServerBuilder;
 use opcua::types::DateTime;
@@ -55,25 +57,19 @@ fn queue_ceiling(control_period: f64) -> usize {
 /// OPC UA ticks (100 ns) per second.
 const TICKS_PER_SECOND: f64 = 1e7;
 
-/// The source timestamps of the run's values: simulated time over `rate` (1 in lockstep) after
-/// the wall-clock time of the first control update stamped.
-#[derive(Debug, Clone)]
+/// The source timestamps of the run's values: simulated time after the wall-clock time of the
+/// first control update stamped.
+#[derive(Debug, Clone, Default)]
 pub struct SourceClock {
-    rate: f64,
     /// The wall clock at simulated time zero, in OPC UA ticks; set at the first stamp.
     start: Option<i64>,
 }
 
 impl SourceClock {
-    /// A clock running `rate` simulated seconds per wall-clock second (positive, finite).
-    pub fn new(rate: f64) -> Self {
-        Self { rate, start: None }
-    }
-
     /// The source timestamp of simulated time `time`, s; the first call ties the simulated
     /// time to the wall clock.
     pub fn stamp(&mut self, time: f64) -> DateTime {
-        let offset = ticks(time / self.rate);
+        let offset = ticks(time);
         let start =
             *(self.start).get_or_insert_with(|| DateTime::now().ticks().saturating_sub(offset));
         DateTime::from(
@@ -100,12 +96,12 @@ mod tests {
     use super::*;
 
     #[test]
-    fn control_updates_are_stamped_one_period_over_the_rate_apart() {
-        let mut clock = SourceClock::new(2.0);
+    fn control_updates_are_stamped_one_period_apart() {
+        let mut clock = SourceClock::default();
         let first = clock.stamp(0.0).ticks();
         for step in 1..=3000_u32 {
             let stamp = clock.stamp(f64::from(step) * 1e-3).ticks();
-            assert_eq!(stamp - first, i64::from(step) * 5_000, "step {step}");
+            assert_eq!(stamp - first, i64::from(step) * 10_000, "step {step}");
         }
         assert!(clock.stamp(f64::NAN).ticks() >= 0);
         assert!(clock.stamp(f64::INFINITY).ticks() < i64::MAX);

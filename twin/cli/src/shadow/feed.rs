@@ -190,6 +190,8 @@ impl Feed {
             true => shadow.finish()?,
             false => shadow.flush()?,
         };
+        // The samples still waiting at the end are no measure of the shadow's pace.
+        sink.live = false;
         sink.take(shadow, steps, start)?;
         sink.publisher.stop();
         Ok(sink.outcome)
