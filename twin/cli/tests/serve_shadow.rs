@@ -7,7 +7,7 @@
 
 mod common;
 
-use common::{finished_within, free_port, scratch, twin};
+use common::{finished_within, free_port, scratch};
 use serde_json::Value;
 use std::io::{BufRead, BufReader};
 use std::path::Path;
