@@ -137,3 +137,48 @@ fn the_shadow_finds_a_served_feed_axis_friction_and_names_it() {
         "{anomaly:#}"
     );
 }
+
+// Measured (release): the served feed axis samples every 1 ms (its control period); told the
+// machine's period is 0.1 ms, the shadow names all three nodes on stderr, in the recording and
+// in the summary's `slow_sampling`, from the median spacing of their first 100 samples. The
+// granted interval alone cannot tell: Python asyncua grants 20 ms and delivers every write.
+
+#[test]
+fn a_server_that_samples_slower_than_the_machine_changes_is_named() {
+    let dir = scratch("serve-shadow", "slow");
+    std::fs::write(dir.join("feed.toml"), scenario()).unwrap();
+    // What the shadow is told: the machine's controller updates every 0.1 ms.
+    let fast = scenario().replacen("control_period = 1.0e-3", "control_period = 1.0e-4", 1);
+    std::fs::write(dir.join("fast.toml"), fast).unwrap();
+    let port = free_port();
+    std::fs::write(dir.join("map.toml"), map(port)).unwrap();
+    let (mut server, _) = serve(&dir, port);
+    let output = finished_within(
+        Command::new(env!("CARGO_BIN_EXE_twin"))
+            .args(["shadow", "fast.toml", "--map", "map.toml"])
+            .args([
+                "--signals",
+                "table.position,table.velocity",
+                "--duration",
+                "6",
+            ])
+            .args(["--out", "shadow.rrd", "--summary", "shadow.json"])
+            .current_dir(&dir),
+        Duration::from_secs(300),
+    );
+    let _ = server.kill();
+    let _ = server.wait();
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(output.status.success(), "{stderr}");
+    let warned = "nodes.\"table.position\" (nsu=urn:twin:feed_axis;s=table.position): samples \
+                  arrive every 1.0 ms (its server granted sampling every 1.0 ms), slower than \
+                  the machine's 0.1 ms control period";
+    assert!(stderr.contains(warned), "{stderr}");
+    let summary: Value =
+        serde_json::from_slice(&std::fs::read(dir.join("shadow.json")).unwrap()).unwrap();
+    assert_eq!(
+        summary["slow_sampling"].as_array().unwrap().len(),
+        3,
+        "{summary:#}"
+    );
+}

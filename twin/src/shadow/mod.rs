@@ -151,6 +151,8 @@ pub struct Shadow {
     /// Seconds the intake holds samples behind the slowest live stream.
     latency: f64,
     scenario_name: String,
+    /// The machine's control period, s (the scenario's, or its step).
+    control_period: f64,
     /// Spans longer than [`MAX_GAP`] without a sample.
     gaps: u64,
 }
@@ -199,6 +201,7 @@ impl Shadow {
             origin: None,
             latency: options.latency,
             scenario_name: scenario.name.clone(),
+            control_period: scenario.control_period.unwrap_or(scenario.dt),
             gaps: 0,
         })
     }
@@ -252,6 +255,12 @@ impl Shadow {
     /// The scenario's name.
     pub fn scenario_name(&self) -> &str {
         &self.scenario_name
+    }
+
+    /// The machine's control period as the scenario gives it, s: how often its commands and
+    /// measurements change.
+    pub fn control_period(&self) -> f64 {
+        self.control_period
     }
 
     /// Seconds since the first sample of source time `source` (s), the first setting the origin.

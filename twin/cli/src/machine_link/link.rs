@@ -184,6 +184,8 @@ pub enum LinkEvent {
 /// A live link to a machine's OPC UA server; see the module's documentation.
 pub struct MachineLink {
     events: Option<Receiver<LinkEvent>>,
+    /// Per node: the sampling interval the server granted at the last (re)connection, s.
+    sampling: Arc<Mutex<Vec<Option<f64>>>>,
     stop: watch::Sender<bool>,
     thread: Option<std::thread::JoinHandle<()>>,
 }
@@ -210,6 +212,8 @@ struct Context {
     refusal: Arc<Mutex<Option<Refusal>>>,
     /// Makes the refusals of certificates seen (see [`security::refusal_watch`]).
     watch: tracing::Dispatch,
+    /// Per node: the sampling interval the server granted, s.
+    sampling: Arc<Mutex<Vec<Option<f64>>>>,
 }
 
 /// One live session: the session and the task driving it, which ends with why it ended.
@@ -282,8 +286,10 @@ impl MachineLink {
         .build()
         .map_err(LinkError::Runtime)?;
         let (events_tx, events_rx) = std::sync::mpsc::sync_channel(CHANNEL_CAPACITY);
+        let sampling = Arc::new(Mutex::new(vec![None; targets.len()]));
         let context = Arc::new(Context {
             url: endpoint.to_string(),
+            sampling: sampling.clone(),
             refused: Arc::new(targets.iter().map(|_| AtomicBool::new(false)).collect()),
             targets,
             options,
@@ -308,9 +314,17 @@ impl MachineLink {
             .map_err(LinkError::Runtime)?;
         Ok(MachineLink {
             events: Some(events_rx),
+            sampling,
             stop,
             thread: Some(thread),
         })
+    }
+
+    /// Per node (in the order given to `connect`): the sampling interval the server granted
+    /// at the last (re)connection, s (None before it answered). A server may revise what the
+    /// link asks for (every change) to its own fastest rate, silently.
+    pub fn granted_sampling(&self) -> Vec<Option<f64>> {
+        self.sampling.lock().map(|s| s.clone()).unwrap_or_default()
     }
 
     /// The next event, waiting at most `timeout`; None on timeout.
@@ -730,6 +744,12 @@ async fn create_items(
             let status = created.result.status_code;
             let index = request.requested_parameters.client_handle as usize - 1;
             if status.is_good() {
+                let granted = created.result.revised_sampling_interval / 1e3;
+                if let Ok(mut sampling) = context.sampling.lock() {
+                    if let Some(slot) = sampling.get_mut(index) {
+                        *slot = Some(granted);
+                    }
+                }
                 continue;
             }
             if with_filter && filter_refused(status) {

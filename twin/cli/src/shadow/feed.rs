@@ -19,6 +19,8 @@ use twin::StopFlag;
 const POLL: Duration = Duration::from_millis(20);
 /// Events taken from the link at most before the samples are processed.
 const DRAIN: usize = 100_000;
+/// Spacings of a node's samples measured before its pace is judged.
+const SPACINGS: usize = 100;
 /// Seconds the shadow may fall behind the machine (net of the clocks' offset) before it says so.
 pub const BEHIND: f64 = 1.0;
 
@@ -66,6 +68,8 @@ pub struct Outcome {
     pub behind: Vec<(f64, Option<f64>)>,
     /// Live: the most the shadow fell behind the machine, s.
     pub most_behind: f64,
+    /// Live: nodes the server samples more slowly than the control period, and how often, s.
+    pub slow_sampling: Vec<(usize, f64)>,
     /// Live: connection losses, (lost at, restored at) in machine seconds since the first
     /// sample.
     pub gaps: Vec<(f64, Option<f64>)>,
@@ -175,13 +179,24 @@ impl Feed {
         let mut sink = Sink {
             recording,
             publisher,
+            nodes: Vec::new(),
+            granted: Vec::new(),
+            spacings: Vec::new(),
             outcome: Outcome::default(),
             live: matches!(self, Feed::Live { .. }),
         };
         match self {
             Feed::Data { data, bindings } => play(data, bindings, shadow, &mut sink, args, stop)?,
-            Feed::Live { link, bindings, .. } => {
+            Feed::Live {
+                link,
+                bindings,
+                map,
+                ..
+            } => {
                 let link = link.as_mut().ok_or("the machine link is not connected")?;
+                sink.nodes = (map.nodes.iter())
+                    .map(|n| format!("nodes.\"{}\" ({})", n.column, n.node))
+                    .collect();
                 watch(link, bindings, shadow, &mut sink, args, stop)?;
             }
         }
@@ -251,6 +266,12 @@ fn restored(sink: &mut Sink, time: f64) -> Result<(), Failure> {
 struct Sink<'a> {
     recording: &'a mut ShadowRecording,
     publisher: Publisher,
+    /// Live: each mapped node, as the map names it.
+    nodes: Vec<String>,
+    /// Live: each node's sampling interval the server granted, s.
+    granted: Vec<Option<f64>>,
+    /// Live: per node, its last sample's source time and the first spacings of its samples, s.
+    spacings: Vec<(Option<f64>, Vec<f64>)>,
     outcome: Outcome,
     live: bool,
 }
@@ -283,6 +304,48 @@ impl Sink<'_> {
             }
         }
         Ok(())
+    }
+
+    /// Takes the arrival of a sample of `node` at source time `time`: once [`SPACINGS`] have
+    /// come, warns, naming the node, if their median spacing is longer than the machine's
+    /// control period (a server's own minimum sampling, revised silently, or a slow publisher):
+    /// values changed between two samples never reach the shadow, and a command held across
+    /// them drives the model with what the machine did not do.
+    fn spacing(&mut self, node: usize, time: f64, period: f64, granted: &[Option<f64>]) {
+        if node >= self.spacings.len() {
+            self.spacings.resize(node + 1, (None, Vec::new()));
+        }
+        let (last, spacings) = &mut self.spacings[node];
+        if let Some(last) = last.replace(time) {
+            if time > last && spacings.len() < SPACINGS {
+                spacings.push(time - last);
+                if spacings.len() == SPACINGS {
+                    let median = quantile(spacings, 0.5);
+                    self.slow(node, median, period, granted.get(node).copied().flatten());
+                }
+            }
+        }
+    }
+
+    /// The warning of [`Sink::spacing`], when `median` is longer than 1.5 control periods.
+    fn slow(&mut self, node: usize, median: f64, period: f64, granted: Option<f64>) {
+        if median <= 1.5 * period {
+            return;
+        }
+        let granted = granted.map_or(String::new(), |g| {
+            format!(" (its server granted sampling every {:.1} ms)", g * 1e3)
+        });
+        let text = format!(
+            "{}: samples arrive every {:.1} ms{granted}, slower than the machine's {:.1} ms \
+             control period: changes between them never reach the shadow (ask for the server's \
+             minimum sampling interval to be lowered)",
+            self.nodes.get(node).map_or("a node", String::as_str),
+            median * 1e3,
+            period * 1e3
+        );
+        eprintln!("warning: {text}");
+        let _ = self.recording.note(0.0, EventLevel::Warning, &text);
+        self.outcome.slow_sampling.push((node, median));
     }
 
     /// Notes when the shadow falls more than [`BEHIND`] s behind the machine and when it has
@@ -389,6 +452,7 @@ fn watch(
         // response that carries one node's second of samples before the next node's is then
         // taken whole, and the slow stream is not left behind.
         shadow.arrival_clock(clock.elapsed().as_secs_f64());
+        sink.granted = link.granted_sampling();
         let mut event = Some(first);
         for _ in 0..DRAIN {
             let Some(taken) = event.take() else { break };
@@ -419,6 +483,8 @@ fn take_event(
             source_time,
             value,
         } => {
+            let granted = sink.granted.clone();
+            sink.spacing(node, source_time, shadow.control_period(), &granted);
             let arrived = now() - source_time;
             let offset = sink.outcome.clock_offset.get_or_insert(arrived);
             *offset = offset.min(arrived);
@@ -449,4 +515,12 @@ fn take_event(
         LinkEvent::Refused { node, reason } => eprintln!("node {node}: {reason}"),
     }
     Ok(())
+}
+
+/// The p-th quantile (0–1) of `values`.
+fn quantile(values: &[f64], p: f64) -> f64 {
+    let mut sorted = values.to_vec();
+    sorted.sort_by(f64::total_cmp);
+    let index = ((sorted.len() as f64 - 1.0) * p).round() as usize;
+    sorted.get(index).copied().unwrap_or(0.0)
 }

@@ -46,6 +46,9 @@ fn summary_json(shadow: &Shadow, outcome: &Outcome) -> serde_json::Value {
         "latency_us": {"p50": quantile_us(&outcome.latencies, 0.5),
                        "p99": quantile_us(&outcome.latencies, 0.99)},
         "clock_offset_s": outcome.clock_offset,
+        "slow_sampling": outcome.slow_sampling.iter()
+            .map(|(node, interval)| json!({"node": node, "granted_s": interval}))
+            .collect::<Vec<_>>(),
         "behind": {"spans": behind, "most_s": outcome.most_behind},
         "connection_gaps": gaps,
         "sample_gaps": shadow.gaps(),
