@@ -158,8 +158,7 @@ fn malformed_options_are_usage_errors_naming_the_option() {
         let stderr = String::from_utf8_lossy(&output.stderr);
         assert_eq!(output.status.code(), Some(2), "{all:?}: {stderr}");
         assert!(
-            stderr.contains(expected)
-                && stderr.lines().filter(|l| !l.starts_with("hint: ")).count() == 1,
+            stderr.contains(expected) && common::error_lines(&stderr) == 1,
             "{all:?}: {stderr}"
         );
     }

@@ -17,11 +17,7 @@ fn fails_naming(args: &[&str], parts: &[&str], test: &str) -> PathBuf {
     let stderr = String::from_utf8_lossy(&output.stderr);
     assert!(!output.status.success(), "{args:?} should fail");
     assert_eq!(
-        stderr
-            .trim()
-            .lines()
-            .filter(|l| !l.starts_with("hint: "))
-            .count(),
+        common::error_lines(stderr.trim()),
         1,
         "one line expected: {stderr}"
     );
@@ -180,15 +176,7 @@ fn malformed_toml_names_the_file() {
     let stderr = String::from_utf8_lossy(&output.stderr);
     assert!(!output.status.success());
     assert!(stderr.contains("broken.toml"), "{stderr}");
-    assert_eq!(
-        stderr
-            .trim()
-            .lines()
-            .filter(|l| !l.starts_with("hint: "))
-            .count(),
-        1,
-        "{stderr}"
-    );
+    assert_eq!(common::error_lines(stderr.trim()), 1, "{stderr}");
 }
 
 #[test]

@@ -197,15 +197,7 @@ fn bad_inputs_are_one_line_errors_and_leave_nothing() {
         let output = twin(&all, &dir);
         let stderr = String::from_utf8_lossy(&output.stderr);
         assert_eq!(output.status.code(), Some(1), "{all:?}: {stderr}");
-        assert_eq!(
-            stderr
-                .trim()
-                .lines()
-                .filter(|l| !l.starts_with("hint: "))
-                .count(),
-            1,
-            "{stderr}"
-        );
+        assert_eq!(common::error_lines(stderr.trim()), 1, "{stderr}");
         for part in parts {
             assert!(stderr.contains(part), "{all:?}: {stderr} lacks {part}");
         }

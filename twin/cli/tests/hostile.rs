@@ -32,10 +32,7 @@ fn fails(output: &Output, parts: &[&str], dir: &Path, keep: &[&str]) {
     let text = stderr(output);
     assert_eq!(output.status.code(), Some(1), "exit code; stderr: {text}");
     assert_eq!(
-        text.trim()
-            .lines()
-            .filter(|l| !l.starts_with("hint: "))
-            .count(),
+        common::error_lines(text.trim()),
         1,
         "one line expected: {text}"
     );

@@ -148,13 +148,7 @@ fn an_output_folder_that_cannot_be_written() {
     let stderr = String::from_utf8_lossy(&output.stderr);
     assert_eq!(output.status.code(), Some(1), "{stderr}");
     assert!(
-        stderr.starts_with("error: --out-dir file/sub")
-            && stderr
-                .trim()
-                .lines()
-                .filter(|l| !l.starts_with("hint: "))
-                .count()
-                == 1,
+        stderr.starts_with("error: --out-dir file/sub") && common::error_lines(stderr.trim()) == 1,
         "{stderr}"
     );
     fails(

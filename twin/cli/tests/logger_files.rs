@@ -114,7 +114,7 @@ fn compare_reads_a_loggers_file_and_notes_the_column_it_leaves_out() {
         message.starts_with(
             "error: logger.csv: column \"temperature [°C]\": unknown signal temperature"
         ) && message.contains("--rename temperature=<known>, or read without --strict")
-            && message.lines().filter(|l| !l.starts_with("hint: ")).count() == 1,
+            && common::error_lines(&message) == 1,
         "{message}"
     );
     // Renamed into a signal of the plant, its unit must fit.
@@ -178,7 +178,7 @@ fn the_rename_flag_is_the_same_in_every_command_and_the_old_names_are_refused() 
     let message = refused(&twin(&["calibrate", "old.toml"], &dir), 1);
     assert!(
         message.contains("`calibration.map`: the table is now called [calibration.rename]; rename [calibration.map] to it")
-            && message.lines().filter(|l| !l.starts_with("hint: ")).count() == 1,
+            && common::error_lines(&message) == 1,
         "{message}"
     );
     let new =

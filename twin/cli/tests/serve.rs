@@ -336,11 +336,7 @@ fn a_host_beyond_loopback_is_refused() {
     );
     assert_eq!(output.status.code(), Some(2));
     let stderr = String::from_utf8_lossy(&output.stderr);
-    assert_eq!(
-        stderr.lines().filter(|l| !l.starts_with("hint: ")).count(),
-        1,
-        "{stderr}"
-    );
+    assert_eq!(common::error_lines(&stderr), 1, "{stderr}");
     assert!(stderr.contains("not a loopback address"), "{stderr}");
 }
 

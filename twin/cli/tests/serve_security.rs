@@ -250,11 +250,7 @@ fn beyond_loopback_needs_security_and_a_user() {
         );
         let stderr = String::from_utf8_lossy(&output.stderr);
         assert_eq!(output.status.code(), Some(2), "{stderr}");
-        assert_eq!(
-            stderr.lines().filter(|l| !l.starts_with("hint: ")).count(),
-            1,
-            "{stderr}"
-        );
+        assert_eq!(common::error_lines(&stderr), 1, "{stderr}");
         assert!(
             stderr.contains("0.0.0.0 is not a loopback address")
                 && stderr.contains("needs --security sign-encrypt (or sign) and --user NAME"),

@@ -155,11 +155,7 @@ fn a_scenario_without_a_reference_is_refused_with_the_controller_inside() {
     );
     assert_eq!(output.status.code(), Some(2));
     let stderr = String::from_utf8_lossy(&output.stderr);
-    assert_eq!(
-        stderr.lines().filter(|l| !l.starts_with("hint: ")).count(),
-        1,
-        "{stderr}"
-    );
+    assert_eq!(common::error_lines(&stderr), 1, "{stderr}");
     assert!(stderr.contains("whitworth-crank-pi"), "{stderr}");
     assert!(stderr.contains("no [reference]"), "{stderr}");
     assert!(!dir.join("whitworth-crank-pi.rrd").exists());

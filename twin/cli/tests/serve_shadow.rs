@@ -84,6 +84,25 @@ fn serve(dir: &Path, port: u16) -> (Child, f64) {
     (child, now.as_secs_f64())
 }
 
+/// `twin shadow SCENARIO --map map.toml` with `args` in `dir`, to `shadow.json`, then the
+/// server stopped: the shadow's stderr and its summary.
+fn shadow(dir: &Path, scenario: &str, args: &[&str], server: &mut Child) -> (String, Value) {
+    let output = finished_within(
+        Command::new(env!("CARGO_BIN_EXE_twin"))
+            .args(["shadow", scenario, "--map", "map.toml"])
+            .args(args)
+            .args(["--out", "shadow.rrd", "--summary", "shadow.json"])
+            .current_dir(dir),
+        Duration::from_secs(300),
+    );
+    let _ = server.kill();
+    let _ = server.wait();
+    let stderr = String::from_utf8_lossy(&output.stderr).into_owned();
+    assert!(output.status.success(), "{stderr}");
+    let summary = serde_json::from_slice(&std::fs::read(dir.join("shadow.json")).unwrap());
+    (stderr, summary.unwrap())
+}
+
 // Measured (release): the shadow joined 0.5–1 s into the run; the friction found at the
 // sample after the onset (detected − start 1 ms), 0.0003 → 4.995 [3.40, 6.59] N; ≈ 60,000
 // samples over 20 s of the run; 11 s wall. The run lasts 30 s and the fault comes at 15 s so
@@ -96,21 +115,10 @@ fn the_shadow_finds_a_served_feed_axis_friction_and_names_it() {
     let port = free_port();
     std::fs::write(dir.join("map.toml"), map(port)).unwrap();
     let (mut server, started) = serve(&dir, port);
-    let output = finished_within(
-        Command::new(env!("CARGO_BIN_EXE_twin"))
-            .args(["shadow", "feed.toml", "--map", "map.toml"])
-            .args(["--signals", "table.position,table.velocity"])
-            .args(["--track", "urdf.joint.table.friction", "--duration", "20"])
-            .args(["--out", "shadow.rrd", "--summary", "shadow.json"])
-            .current_dir(&dir),
-        Duration::from_secs(300),
-    );
-    let _ = server.kill();
-    let _ = server.wait();
-    let stderr = String::from_utf8_lossy(&output.stderr);
-    assert!(output.status.success(), "{stderr}");
-    let summary: Value =
-        serde_json::from_slice(&std::fs::read(dir.join("shadow.json")).unwrap()).unwrap();
+    let signals = ["--signals", "table.position,table.velocity"];
+    let track = ["--track", "urdf.joint.table.friction", "--duration", "20"];
+    let args = [&signals[..], &track].concat();
+    let (stderr, summary) = shadow(&dir, "feed.toml", &args, &mut server);
     // Every control update of the 20 s watched: three streams at 1 kHz.
     let processed = summary["intake"]["processed"].as_f64().unwrap();
     assert!(processed >= 0.99 * 3.0 * 1000.0 * 20.0, "{summary:#}");
@@ -153,29 +161,17 @@ fn a_server_that_samples_slower_than_the_machine_changes_is_named() {
     let port = free_port();
     std::fs::write(dir.join("map.toml"), map(port)).unwrap();
     let (mut server, _) = serve(&dir, port);
-    let output = finished_within(
-        Command::new(env!("CARGO_BIN_EXE_twin"))
-            .args(["shadow", "fast.toml", "--map", "map.toml"])
-            .args([
-                "--signals",
-                "table.position,table.velocity",
-                "--duration",
-                "6",
-            ])
-            .args(["--out", "shadow.rrd", "--summary", "shadow.json"])
-            .current_dir(&dir),
-        Duration::from_secs(300),
-    );
-    let _ = server.kill();
-    let _ = server.wait();
-    let stderr = String::from_utf8_lossy(&output.stderr);
-    assert!(output.status.success(), "{stderr}");
+    let args = [
+        "--signals",
+        "table.position,table.velocity",
+        "--duration",
+        "6",
+    ];
+    let (stderr, summary) = shadow(&dir, "fast.toml", &args, &mut server);
     let warned = "nodes.\"table.position\" (nsu=urn:twin:feed_axis;s=table.position): samples \
                   arrive every 1.0 ms (its server granted sampling every 1.0 ms), slower than \
                   the machine's 0.1 ms control period";
     assert!(stderr.contains(warned), "{stderr}");
-    let summary: Value =
-        serde_json::from_slice(&std::fs::read(dir.join("shadow.json")).unwrap()).unwrap();
     assert_eq!(
         summary["slow_sampling"].as_array().unwrap().len(),
         3,

@@ -696,22 +696,9 @@ fn bad_input_is_refused_in_one_line_leaving_nothing_behind() {
             "{case}: {:?} {stderr}",
             output.status
         );
-        assert_eq!(
-            stderr
-                .trim()
-                .lines()
-                .filter(|l| !l.starts_with("hint: "))
-                .count(),
-            1,
-            "{case}: {stderr}"
-        );
+        assert_eq!(common::error_lines(stderr.trim()), 1, "{case}: {stderr}");
         assert!(stderr.contains(&named), "{case}: `{named}` not in {stderr}");
-        let mut left: Vec<String> = std::fs::read_dir(&case_dir)
-            .unwrap()
-            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
-            .collect();
-        left.sort();
-        assert_eq!(left, ["healthy.toml", "map.toml"], "{case}");
+        assert_eq!(listing(&case_dir), ["healthy.toml", "map.toml"], "{case}");
     }
     drop(silent);
 }
@@ -783,15 +770,7 @@ fn bad_data_input_is_refused_in_one_line_leaving_nothing_behind() {
             "{case}: {:?} {stderr}",
             output.status
         );
-        assert_eq!(
-            stderr
-                .trim()
-                .lines()
-                .filter(|l| !l.starts_with("hint: "))
-                .count(),
-            1,
-            "{case}: {stderr}"
-        );
+        assert_eq!(common::error_lines(stderr.trim()), 1, "{case}: {stderr}");
         assert!(stderr.contains(&named), "{case}: `{named}` not in {stderr}");
         // A usage error (exit 2) ends with where the options are told.
         if output.status.code() == Some(2) {

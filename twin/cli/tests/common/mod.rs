@@ -94,3 +94,8 @@ pub fn free_port() -> u16 {
     let listener = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
     listener.local_addr().unwrap().port()
 }
+
+/// The lines of an error's stderr without its `hint:` line (a usage error's last).
+pub fn error_lines(stderr: &str) -> usize {
+    stderr.lines().filter(|l| !l.starts_with("hint: ")).count()
+}
