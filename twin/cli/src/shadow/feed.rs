@@ -52,7 +52,7 @@ pub enum Feed {
     },
 }
 
-/// How the feeding went, for the report.
+/// How the feeding went, for the summary.
 #[derive(Debug, Default)]
 pub struct Outcome {
     /// Wall-clock cost of each processed step, s.
@@ -311,7 +311,7 @@ impl Sink<'_> {
     /// control period (a server's own minimum sampling, revised silently, or a slow publisher):
     /// values changed between two samples never reach the shadow, and a command held across
     /// them drives the model with what the machine did not do.
-    fn spacing(&mut self, node: usize, time: f64, period: f64) {
+    fn spacing(&mut self, node: usize, time: f64, period: f64, granted: &[Option<f64>]) {
         if node >= self.spacings.len() {
             self.spacings.resize(node + 1, (None, Vec::new()));
         }
@@ -320,9 +320,8 @@ impl Sink<'_> {
             if time > last && spacings.len() < SPACINGS {
                 spacings.push(time - last);
                 if spacings.len() == SPACINGS {
-                    let median = super::report::quantile(spacings, 0.5).unwrap_or(0.0);
-                    let granted = self.granted.get(node).copied().flatten();
-                    self.slow(node, median, period, granted);
+                    let median = quantile(spacings, 0.5);
+                    self.slow(node, median, period, granted.get(node).copied().flatten());
                 }
             }
         }
@@ -484,7 +483,8 @@ fn take_event(
             source_time,
             value,
         } => {
-            sink.spacing(node, source_time, shadow.control_period());
+            let granted = sink.granted.clone();
+            sink.spacing(node, source_time, shadow.control_period(), &granted);
             let arrived = now() - source_time;
             let offset = sink.outcome.clock_offset.get_or_insert(arrived);
             *offset = offset.min(arrived);
@@ -515,4 +515,12 @@ fn take_event(
         LinkEvent::Refused { node, reason } => eprintln!("node {node}: {reason}"),
     }
     Ok(())
+}
+
+/// The p-th quantile (0–1) of `values`.
+fn quantile(values: &[f64], p: f64) -> f64 {
+    let mut sorted = values.to_vec();
+    sorted.sort_by(f64::total_cmp);
+    let index = ((sorted.len() as f64 - 1.0) * p).round() as usize;
+    sorted.get(index).copied().unwrap_or(0.0)
 }

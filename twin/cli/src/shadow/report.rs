@@ -9,17 +9,12 @@ use std::process::ExitCode;
 use twin::shadowing::{Anomaly, Shadow, ShadowRecording};
 use twin::OutputFile;
 
-/// The p-th quantile (0–1) of `values` (None for none).
-pub(super) fn quantile(values: &[f64], p: f64) -> Option<f64> {
+/// The p-th quantile (0–1) of `values`, s → µs.
+fn quantile_us(values: &[f64], p: f64) -> Option<f64> {
     let mut sorted = values.to_vec();
     sorted.sort_by(f64::total_cmp);
     let index = ((sorted.len() as f64 - 1.0) * p).round() as usize;
-    sorted.get(index).copied()
-}
-
-/// The p-th quantile (0–1) of `values`, s → µs.
-fn quantile_us(values: &[f64], p: f64) -> Option<f64> {
-    quantile(values, p).map(|v| v * 1e6)
+    sorted.get(index).map(|v| v * 1e6)
 }
 
 /// The summary as JSON.
