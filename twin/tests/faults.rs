@@ -283,3 +283,30 @@ fn array_entries_are_addressable_by_index() {
         "{no_index}"
     );
 }
+
+#[test]
+fn a_fault_is_added_by_its_next_index() {
+    let added = ["kind=link_mass", "link=ram", "value=6", "start=0.05"]
+        .iter()
+        .try_fold(
+            Scenario::from_toml(&builtin_text("whitworth-crank-pi"), "s", None).unwrap(),
+            |s, part| s.assign(&format!("faults.0.{part}")),
+        )
+        .and_then(|s| s.assign("faults.1.kind=joint_friction"))
+        .and_then(|s| s.assign("faults.1.joint=crank"))
+        .and_then(|s| s.assign("faults.1.value=2"))
+        .and_then(|s| s.assign("faults.1.start=1"))
+        .and_then(|s| s.build(&controllers::builtin()))
+        .unwrap();
+    let faults = &added.scenario.faults;
+    assert_eq!(faults.len(), 2);
+    assert_eq!((faults[0].start, faults[0].value), (0.05, Some(6.0)));
+    assert_eq!(faults[1].value, Some(2.0));
+    let skipped = Scenario::from_toml(&builtin_text("whitworth-crank-pi"), "s", None)
+        .and_then(|s| s.assign("faults.1.kind=link_mass"))
+        .unwrap_err();
+    assert!(
+        skipped.to_string().contains("a new one is `faults.0`"),
+        "{skipped}"
+    );
+}

@@ -332,8 +332,9 @@ impl ScenarioBuilder {
     }
 
     /// Sets a dotted key to a value: the one path of `set` and `assign`. A numeric segment
-    /// indexes an array of tables (`metrics.0.from`, `faults.1.start`); a leading `urdf.` is the
-    /// `[plant]` table (the URDF's values: `urdf.link.ram.mass`).
+    /// indexes an array of tables (`metrics.0.from`, `faults.1.start`); the index one past the
+    /// last entry adds one (`faults.0.kind` on a scenario without faults); a leading `urdf.` is
+    /// the `[plant]` table (the URDF's values: `urdf.link.ram.mass`).
     fn put(&mut self, key: &str, value: ScenarioValue) -> Result<(), String> {
         let mut path = key_path(key)?;
         let value = value.0?;
@@ -344,9 +345,16 @@ impl ScenarioBuilder {
         let mut current = &mut self.table;
         let mut parts = parents.iter();
         while let Some(part) = parts.next() {
+            let indexed = parts
+                .as_slice()
+                .first()
+                .is_some_and(|n| n.parse::<usize>().is_ok());
             let entry = current
                 .entry(part.as_str())
-                .or_insert_with(|| toml::Value::Table(toml::Table::new()));
+                .or_insert_with(|| match indexed {
+                    true => toml::Value::Array(Vec::new()),
+                    false => toml::Value::Table(toml::Table::new()),
+                });
             let entry = match entry {
                 // A number in an array of numbers: `plant.link.forearm.com.0`.
                 toml::Value::Array(items) if parts.len() == 0 => {
@@ -386,9 +394,10 @@ fn array_element(
     Ok(())
 }
 
-/// The entry of the array `name` that the key's next segment, an index, picks.
+/// The entry of the array `name` that the key's next segment, an index, picks; the index one
+/// past the last entry of an array of tables (or of an empty one) adds a table.
 fn array_entry<'a>(
-    items: &'a mut [toml::Value],
+    items: &'a mut Vec<toml::Value>,
     name: &str,
     index: Option<&String>,
 ) -> Result<&'a mut toml::Value, String> {
@@ -396,9 +405,12 @@ fn array_entry<'a>(
     let index = index
         .and_then(|i| i.parse::<usize>().ok())
         .ok_or_else(|| format!("`{name}` is an array: give an entry's index (`{name}.0.…`)"))?;
-    items
-        .get_mut(index)
-        .ok_or_else(|| format!("`{name}` has {count} entries; there is no `{name}.{index}`"))
+    if index == count && items.iter().all(toml::Value::is_table) {
+        items.push(toml::Value::Table(toml::Table::new()));
+    }
+    items.get_mut(index).ok_or_else(|| {
+        format!("`{name}` has {count} entries; there is no `{name}.{index}` (a new one is `{name}.{count}`)")
+    })
 }
 
 /// Splits a dotted key; a quoted segment may hold dots (`sensors."table.position".noise`).

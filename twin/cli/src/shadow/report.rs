@@ -107,13 +107,14 @@ pub fn finish(
         ));
     }
     text.push_str(&live_lines(shadow, outcome));
-    if let Some(p50) = quantile_us(&outcome.costs, 0.5) {
-        text.push_str(&format!(
-            "estimator + detector: {p50:.0} µs per update (median; an update takes the values measured at one time)\n"
-        ));
-    }
-    recording.finish(&text)?;
+    // The cost is this computer's, not the data's: on stderr, so that the same data print the
+    // same report.
+    let cost = quantile_us(&outcome.costs, 0.5).map_or(String::new(), |p50| {
+        format!("estimator + detector: {p50:.0} µs per update (median; an update takes the values measured at one time)\n")
+    });
+    recording.finish(&format!("{text}{cost}"))?;
     print!("{text}");
+    eprint!("{cost}");
     println!("recording: {}", out.display());
     if let Some(file) = summary_file {
         let bytes = serde_json::to_vec_pretty(&summary_json(shadow, outcome))?;
