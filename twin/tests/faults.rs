@@ -289,7 +289,7 @@ fn a_fault_is_added_by_its_next_index() {
     let added = ["kind=link_mass", "link=ram", "value=6", "start=0.05"]
         .iter()
         .try_fold(
-            Scenario::from_toml(&builtin_text("whitworth-crank-pi"), "s", None).unwrap(),
+            Scenario::from_toml(builtin_text("whitworth-crank-pi"), "s", None).unwrap(),
             |s, part| s.assign(&format!("faults.0.{part}")),
         )
         .and_then(|s| s.assign("faults.1.kind=joint_friction"))
@@ -302,7 +302,7 @@ fn a_fault_is_added_by_its_next_index() {
     assert_eq!(faults.len(), 2);
     assert_eq!((faults[0].start, faults[0].value), (0.05, Some(6.0)));
     assert_eq!(faults[1].value, Some(2.0));
-    let skipped = Scenario::from_toml(&builtin_text("whitworth-crank-pi"), "s", None)
+    let skipped = Scenario::from_toml(builtin_text("whitworth-crank-pi"), "s", None)
         .and_then(|s| s.assign("faults.1.kind=link_mass"))
         .unwrap_err();
     assert!(
