@@ -204,6 +204,28 @@ fn data_a_heavier_ram_is_found_and_weighed() {
     generate(&dir, "mass", 40.0, Some(MASS));
     let summary = shadow_data(&dir, "mass");
     put_on(the_anomaly(&summary, 2.0), "urdf.link.ram.mass", 6.0);
+    // The watch view: the mechanism posed by the estimate, and in grey where the measured crank
+    // angle puts it; the tests against their thresholds (with the anomaly's span) and the
+    // parameters with their intervals.
+    let contents = twin::recordings::inspect(&dir.join("shadow.rrd")).unwrap();
+    let mechanism = &contents.views_2d;
+    assert!(
+        mechanism
+            .iter()
+            .any(|v| v.contains("as the shadow estimates it (grey:")),
+        "{mechanism:?}"
+    );
+    for entity in ["/mechanism/ram", "/mechanism/bodies/measured_ram"] {
+        assert!(
+            contents.entities.contains(entity),
+            "{:?}",
+            contents.entities
+        );
+    }
+    let plots = &contents.time_series_views;
+    for title in ["anomaly tests (alarm above 1)", "urdf.link.ram.mass (SI)"] {
+        assert!(plots.iter().any(|v| v.starts_with(title)), "{plots:?}");
+    }
 }
 
 #[test]

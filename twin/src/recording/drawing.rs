@@ -53,7 +53,11 @@ pub(super) fn log_layout(stream: &RecordingStream, layout: &RecordingLayout) -> 
     }
     for (name, shapes) in &layout.bodies {
         if let Some(strips) = link_strips(shapes, BODY_COLOR) {
-            log_static(body_entity(name), &strips.with_labels([name.as_str()]))?;
+            let strips = match layout.unlabelled_bodies {
+                true => strips,
+                false => strips.with_labels([name.as_str()]),
+            };
+            log_static(body_entity(name), &strips)?;
         }
     }
     if let Some(scene) = &layout.scene {

@@ -20,6 +20,9 @@ pub struct RecordingLayout {
     pub links: Vec<(String, Vec<Shape>)>,
     /// The scenario's bodies, drawn like links: name and shapes in the body's frame.
     pub bodies: Vec<(String, Vec<Shape>)>,
+    /// Draw the bodies unlabelled (a second pose of the links beside them, whose labels would
+    /// cover the links').
+    pub unlabelled_bodies: bool,
     /// The mechanism view's frame, drawings and markers; the positions of its markers are passed
     /// to [`Recorder::push`] in the order of `scene.markers`.
     pub scene: Option<Scene>,
@@ -46,6 +49,9 @@ pub(super) fn figure_entity(name: &str) -> String {
 /// Which tab of the layout a plot is on.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum PlotTab {
+    /// What a watch is about, first and open: the tests against their thresholds and the
+    /// tracked parameters (a shadow's recording).
+    Watch,
     /// A reference or a command on the plot of what it commands.
     Tracking,
     /// The machine's own signals.
@@ -62,7 +68,8 @@ pub enum PlotTab {
 
 impl PlotTab {
     /// The tabs in the order the layout shows them.
-    pub const ALL: [PlotTab; 6] = [
+    pub const ALL: [PlotTab; 7] = [
+        PlotTab::Watch,
         PlotTab::Tracking,
         PlotTab::Process,
         PlotTab::Efforts,
@@ -74,6 +81,7 @@ impl PlotTab {
     /// The tab's name in the layout, lower case: `tracking`, `process`, ….
     pub fn label(self) -> &'static str {
         match self {
+            PlotTab::Watch => "watch",
             PlotTab::Tracking => "tracking",
             PlotTab::Process => "process",
             PlotTab::Efforts => "efforts",

@@ -69,6 +69,7 @@ fn layout(links: usize, groups: &[(&str, usize)]) -> RecordingLayout {
             .map(|i| (format!("link {i}"), shapes(i)))
             .collect(),
         bodies: Vec::new(),
+        unlabelled_bodies: false,
         scene: None,
         figures: Vec::new(),
         plots: {

@@ -171,6 +171,14 @@ impl SignalLayout {
         diagnostics[diagnostics.len() - 1]
     }
 
+    /// The tree joint whose position is plant signal `signal`, if it is one.
+    pub(crate) fn position_joint(&self, signal: usize) -> Option<usize> {
+        signal
+            .is_multiple_of(2)
+            .then(|| self.sensed.get(signal / 2).copied())
+            .flatten()
+    }
+
     /// Copies the sensed joints' positions and velocities into the head of `signals`.
     pub(crate) fn fill_joint_signals(&self, state: &MechanismState, signals: &mut [f64]) {
         for (k, &j) in self.sensed.iter().enumerate() {

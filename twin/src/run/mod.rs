@@ -552,7 +552,7 @@ impl Twin {
 /// The scene with its frame widened to hold the links at their URDF pose, the bodies where the
 /// scenario places them and the drawings, with a margin, so that nothing drawn touches the
 /// view's border.
-fn framed(mut scene: Scene, mechanism: &Mechanism, bodies: &[BodySpec]) -> Scene {
+pub(crate) fn framed(mut scene: Scene, mechanism: &Mechanism, bodies: &[BodySpec]) -> Scene {
     const MARGIN: f64 = 0.04;
     let poses = mechanism.zero_pose();
     let links = mechanism.links.iter().zip(&poses).flat_map(|(link, pose)| {

@@ -84,6 +84,7 @@ impl RecordingObserver {
                 scenario_toml: parts.scenario_toml,
                 links: parts.links,
                 bodies: parts.bodies,
+                unlabelled_bodies: false,
                 scene: Some(parts.scene),
                 plots: Vec::new(),
                 figures: Vec::new(),

@@ -12,6 +12,7 @@
 
 use super::model::{diverged, Knob, Model, Tape};
 use super::ShadowError;
+use crate::mechanism::Pose2;
 use nalgebra::{DMatrix, DVector};
 
 /// One measurement update's innovation, per observed signal.
@@ -290,5 +291,19 @@ impl Filter {
         let all: Vec<usize> = (0..self.model.watched.len()).collect();
         let x = self.x.clone();
         self.measure(&x, time, &all)
+    }
+
+    /// The links' poses at the estimate (as [`Filter::estimate`] left the model), and where the
+    /// joint positions `observed` at `time` put them, if they place the mechanism.
+    pub fn poses(
+        &mut self,
+        time: f64,
+        observed: &[(usize, f64)],
+    ) -> Result<(Vec<Pose2>, Option<Vec<Pose2>>), ShadowError> {
+        let estimated = self.model.link_poses().to_vec();
+        let k = 2 * self.coordinates();
+        let x = self.x[..k].to_vec();
+        let measured = (self.model.measured_poses(&x, observed)).map_err(|e| diverged(time, e))?;
+        Ok((estimated, measured))
     }
 }

@@ -21,9 +21,11 @@ pub use filter::Innovation;
 pub use options::{ShadowOptions, TrackedParameter, DEFAULT_PROCESS_NOISE};
 pub use record::{describe, ShadowRecording};
 
+use crate::mechanism::{Pose2, Shape};
 use crate::run::{LinearizeError, Twin, TwinError};
 use crate::run_data::PlantColumns;
 use crate::scenario::LoadedScenario;
+use crate::scene::Scene;
 use detector::Detector;
 use filter::Filter;
 use intake::{Intake, Sample, SampleKind};
@@ -111,6 +113,11 @@ pub struct ShadowStep {
     pub learning: bool,
     /// An anomaly opened or closed now.
     pub change: Option<AnomalyChange>,
+    /// The links' poses at the corrected estimate.
+    pub poses: Vec<Pose2>,
+    /// The links' poses where the joint positions measured now put the mechanism, when they
+    /// place it (every independent coordinate's position measured).
+    pub measured_poses: Option<Vec<Pose2>>,
 }
 
 /// Counts of what the intake did with the samples.
@@ -250,6 +257,32 @@ impl Shadow {
         (model.watched.iter())
             .map(|&i| model.layout.specs.signals[i].unit)
             .collect()
+    }
+
+    /// The mechanism's links as the recording draws them (name, shapes in the link's frame).
+    pub fn links(&self) -> Vec<(String, Vec<Shape>)> {
+        (self.filter.model.mechanism.links.iter())
+            .map(|l| (l.name.clone(), l.visuals.clone()))
+            .collect()
+    }
+
+    /// The mechanism view's frame and drawings, as a run of the scenario shows them (without
+    /// its markers, which follow signals the shadow does not estimate).
+    pub fn scene(&self) -> Scene {
+        let model = &self.filter.model;
+        let mut scene = crate::run::framed(model.scene(), &model.mechanism, &[]);
+        scene.markers.clear();
+        scene
+    }
+
+    /// Whether the watched signals include every independent coordinate's position, so that
+    /// the measurements alone place the mechanism ([`ShadowStep::measured_poses`]).
+    pub fn measurements_place_the_mechanism(&self) -> bool {
+        let model = &self.filter.model;
+        let measured: Vec<usize> = (model.watched.iter())
+            .filter_map(|&s| model.layout.position_joint(s))
+            .collect();
+        model.coordinates.iter().all(|j| measured.contains(j))
     }
 
     /// The scenario's name.
@@ -444,9 +477,13 @@ impl Shadow {
         let parameters = self.estimates();
         let change = self.detector.observe(time, &z, nis_per_dof, &parameters);
         self.filter.hold = self.detector.reacquiring();
+        let estimate = self.filter.estimate(time)?;
+        let (poses, measured_poses) = self.filter.poses(time, &observed)?;
         Ok(ShadowStep {
             time,
-            estimate: self.filter.estimate(time)?,
+            estimate,
+            poses,
+            measured_poses,
             measured: observed,
             innovation,
             parameters,

@@ -9,7 +9,7 @@
 
 use super::ShadowError;
 use crate::machines::Machine;
-use crate::mechanism::{Inertial, Mechanism};
+use crate::mechanism::{Inertial, Mechanism, Pose2};
 use crate::physics::{Load, MechanismState, ReducedDynamics, ReducedError};
 use crate::run::{ModelParts, SignalLayout};
 
@@ -270,6 +270,44 @@ impl Model {
             out[k] = self.gain[k] * self.signals[i] + self.bias[k];
         }
         Ok(())
+    }
+
+    /// The machine's mechanism view: its frame, what is machined, its markers.
+    pub fn scene(&self) -> crate::scene::Scene {
+        self.machine.scene()
+    }
+
+    /// The links' poses at the state [`Model::measure`] last read.
+    pub fn link_poses(&self) -> &[Pose2] {
+        &self.state.link_poses
+    }
+
+    /// The links' poses where the measured joint positions put the mechanism: x with each
+    /// independent coordinate's position replaced by its reading in `measured` (watched signal,
+    /// SI value; the sensor's gain and bias undone). `None` unless every independent
+    /// coordinate's position is among them.
+    pub fn measured_poses(
+        &mut self,
+        x: &[f64],
+        measured: &[(usize, f64)],
+    ) -> Result<Option<Vec<Pose2>>, ReducedError> {
+        let mut placed = x.to_vec();
+        let mut found = 0;
+        for &(k, value) in measured {
+            let signal = self.watched[k];
+            let Some(joint) = self.layout.position_joint(signal) else {
+                continue;
+            };
+            if let Some(c) = self.coordinates.iter().position(|&j| j == joint) {
+                placed[c] = (value - self.bias[k]) / self.gain[k];
+                found += 1;
+            }
+        }
+        if found < self.coordinates.len() {
+            return Ok(None);
+        }
+        self.reduced.read_state(&placed, &mut self.state)?;
+        Ok(Some(self.state.link_poses.clone()))
     }
 
     /// Per independent coordinate, the largest acceleration one actuator at its effort limit

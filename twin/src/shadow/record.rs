@@ -1,9 +1,11 @@
-//! A shadow's recording: per watched signal the measurement and the estimate on one plot and
-//! the residual below it, the normalised innovations, the detector's statistics against their
-//! thresholds, the tracked parameters with their 95 % intervals, and the anomalies and
-//! connection events in the log.
+//! A shadow's recording, opening on a watch view: the mechanism posed by the estimate (and in
+//! grey where the measured joint positions put it, when they place it), the tests against their
+//! thresholds with the open anomaly's span, and the tracked parameters with their 95 %
+//! intervals; further tabs hold per watched signal the measurement and the estimate, the
+//! residual and the normalised innovations. Anomalies and connection events are in the log.
 
 use super::{AnomalyChange, Shadow, ShadowError, ShadowStep};
+use crate::mechanism::{Pose2, Shape};
 use crate::recording::{
     LiveViewer, PlotSpec, PlotTab, Recorder, RecordingLayout, SeriesRole, SeriesSpec,
 };
@@ -17,6 +19,12 @@ pub struct ShadowRecording {
     steps: i64,
     watched: usize,
     knobs: usize,
+    /// The links' poses at the estimate, then (with `ghost`) where the measurements last put
+    /// them.
+    poses: Vec<Pose2>,
+    ghost: bool,
+    /// Whether an anomaly is open (one at a time: it closes when every test is released).
+    open: bool,
 }
 
 /// One plotted series.
@@ -29,9 +37,15 @@ fn series(name: String, role: SeriesRole, value: usize) -> SeriesSpec {
     }
 }
 
+/// Where the anomaly flag (1 while one is open, else 0) is among the values, after the
+/// parameters' estimates and bounds.
+fn alarm_index(watched: usize, parameters: usize) -> usize {
+    5 * watched + 1 + 4 * parameters
+}
+
 /// The plots, their series indexing the values [`ShadowRecording::push`] lays out: measured,
 /// estimate, residual, normalised innovation and CUSUM per signal, the NIS, drift per
-/// parameter, then estimate, lower and upper bound per parameter.
+/// parameter, then estimate, lower and upper bound per parameter, then the anomaly flag.
 fn plots(shadow: &Shadow) -> Vec<PlotSpec> {
     let w = shadow.watched().len();
     let p = shadow.parameters().len();
@@ -81,8 +95,13 @@ fn plots(shadow: &Shadow) -> Vec<PlotSpec> {
             5 * w + 1 + j,
         )
     }));
+    tests.push(series(
+        "anomaly open (1)".into(),
+        SeriesRole::Reference,
+        alarm_index(w, p),
+    ));
     plots.push(PlotSpec {
-        tab: PlotTab::Diagnostics,
+        tab: PlotTab::Watch,
         name: "anomaly tests (alarm above 1)".into(),
         unit: Unit::Dimensionless,
         series: tests,
@@ -90,7 +109,7 @@ fn plots(shadow: &Shadow) -> Vec<PlotSpec> {
     let base = 5 * w + 1 + p;
     for (j, key) in shadow.parameters().iter().enumerate() {
         plots.push(PlotSpec {
-            tab: PlotTab::Controller,
+            tab: PlotTab::Watch,
             name: format!("{key} (SI)"),
             unit: Unit::Dimensionless,
             series: vec![
@@ -120,21 +139,45 @@ impl ShadowRecording {
         id: &str,
         live: Option<LiveViewer>,
     ) -> Result<Self, ShadowError> {
+        let links = shadow.links();
+        // Where the measured joint positions put the mechanism, drawn as bodies beside the
+        // estimate's links, when the watched signals place it.
+        let measured = match shadow.measurements_place_the_mechanism() {
+            true => (links.iter())
+                .map(|(name, shapes)| (format!("measured_{name}"), grey(shapes)))
+                .collect(),
+            false => Vec::new(),
+        };
+        let mut scene = shadow.scene();
+        scene.title = match measured.is_empty() {
+            true => format!("{} as the shadow estimates it", scene.title),
+            false => format!(
+                "{} as the shadow estimates it (grey: where the measured joint positions put it)",
+                scene.title
+            ),
+        };
         let layout = RecordingLayout {
             app: format!("{}-shadow", shadow.scenario_name()),
             recording_id: id.to_string(),
             plots: plots(shadow),
             live,
+            links,
+            bodies: measured,
+            unlabelled_bodies: true,
+            scene: Some(scene),
             ..RecordingLayout::default()
         };
         let w = shadow.watched().len();
         let p = shadow.parameters().len();
         Ok(Self {
             recorder: Recorder::create(path, &layout)?,
-            values: vec![f64::NAN; 5 * w + 1 + 4 * p],
+            values: vec![f64::NAN; alarm_index(w, p) + 1],
             steps: 0,
             watched: w,
             knobs: p,
+            poses: Vec::new(),
+            ghost: !layout.bodies.is_empty(),
+            open: false,
         })
     }
 
@@ -165,14 +208,37 @@ impl ShadowRecording {
             self.values[at + 1] = estimate - 1.96 * sigma;
             self.values[at + 2] = estimate + 1.96 * sigma;
         }
+        self.open = match &step.change {
+            Some(AnomalyChange::Opened(_)) => true,
+            Some(AnomalyChange::Closed(_)) => false,
+            None => self.open,
+        };
+        self.values[alarm_index(w, self.knobs)] = f64::from(u8::from(self.open));
+        self.place(step);
         self.recorder
-            .push(self.steps, step.time, &[], &self.values, &[])?;
+            .push(self.steps, step.time, &self.poses, &self.values, &[])?;
         if let Some(change) = &step.change {
             let (level, text) = describe(change);
             self.recorder.event(self.steps, step.time, level, &text)?;
         }
         self.steps += 1;
         Ok(())
+    }
+
+    /// The poses to draw: the estimate's, and the measured ones (held until the next step
+    /// that has them; the estimate's until the first).
+    fn place(&mut self, step: &ShadowStep) {
+        let links = step.poses.len();
+        if self.poses.is_empty() {
+            self.poses = step.poses.clone();
+            if self.ghost {
+                self.poses.extend_from_slice(&step.poses);
+            }
+        }
+        self.poses[..links].copy_from_slice(&step.poses);
+        if let (true, Some(measured)) = (self.ghost, &step.measured_poses) {
+            self.poses[links..].copy_from_slice(measured);
+        }
     }
 
     /// Logs a line (a connection lost or restored) at `time`.
@@ -186,6 +252,15 @@ impl ShadowRecording {
         self.recorder.finish()?;
         Ok(())
     }
+}
+
+/// `shapes` without their own colours: drawn in the bodies' neutral grey.
+fn grey(shapes: &[Shape]) -> Vec<Shape> {
+    let mut shapes = shapes.to_vec();
+    for shape in &mut shapes {
+        shape.color = None;
+    }
+    shapes
 }
 
 /// An anomaly change as a log line.
