@@ -306,6 +306,19 @@ fn data_a_healthy_run_raises_nothing_and_keeps_the_urdf_values() {
     }
     assert_eq!(summary["intake"]["processed"], 3 * 4001, "{summary:#}");
     assert_eq!(summary["origin"], 0.0);
+    // The same data and options: the same report, the same recording, byte for byte.
+    let again = |out: &str| {
+        let mut args: Vec<String> = ["shadow", "healthy.toml", "--data", "healthy.csv"]
+            .map(String::from)
+            .into();
+        args.extend(watching());
+        args.extend(["--out".into(), out.into()]);
+        let output = twin(&args, &dir);
+        assert!(output.status.success(), "{}", text(&output.stderr));
+        let report = text(&output.stdout).replace(out, "OUT");
+        (report, std::fs::read(dir.join(out)).unwrap())
+    };
+    assert_eq!(again("first.rrd"), again("second.rrd"));
 }
 
 // ---- Live: the machine over OPC UA ----

@@ -107,12 +107,12 @@ pub fn finish(
         ));
     }
     text.push_str(&live_lines(shadow, outcome));
-    // The cost is this computer's, not the data's: on stderr, so that the same data print the
-    // same report.
+    // The cost is this computer's, not the data's: on stderr (and in the JSON's `cost_us`), so
+    // that the same data print the same report and write the same recording.
     let cost = quantile_us(&outcome.costs, 0.5).map_or(String::new(), |p50| {
         format!("estimator + detector: {p50:.0} µs per update (median; an update takes the values measured at one time)\n")
     });
-    recording.finish(&format!("{text}{cost}"))?;
+    recording.finish(&text)?;
     print!("{text}");
     eprint!("{cost}");
     println!("recording: {}", out.display());
