@@ -14,6 +14,7 @@ pub mod design;
 pub mod arm;
 pub mod feed_axis;
 pub mod filters;
+pub mod generic;
 pub mod lathe;
 pub mod milling;
 pub mod passive;
@@ -26,6 +27,7 @@ use framework::Registry;
 pub fn builtin() -> Registry {
     Registry::with([
         passive::entry(),
+        generic::joint_pid::entry(),
         whitworth::crank_pi::entry(),
         whitworth::osmc::entry(),
         whitworth::ffc::entry(),

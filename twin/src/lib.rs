@@ -31,7 +31,7 @@ mod spectrum;
 mod urdf;
 
 pub use linear::{Channel, LinearModel, ModelError, OperatingPoint};
-pub use machines::{ActuatorKind, ActuatorSpec};
+pub use machines::{ActuatorKind, ActuatorSpec, PointSpec, SpringSpec};
 pub use output::{same_file, OutputError, OutputFile};
 pub use physics::{
     AllowedContact, BodyKind, BodyShape, BodySpec, Collision, ContactOptions, Engine, SolverOptions,

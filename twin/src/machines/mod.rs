@@ -5,6 +5,7 @@
 mod actuators;
 mod arm;
 mod feed_axis;
+mod generic;
 mod lathe;
 mod milling;
 mod platform;
@@ -17,6 +18,7 @@ use framework::{Actuator, EffortKind, SignalSpec, Unit};
 use thiserror::Error;
 
 pub use actuators::{ActuatorKind, ActuatorSpec, ActuatorSpecs};
+pub use generic::{PointSpec, PointSpecs, SpringSpec, GENERIC};
 
 #[derive(Debug, Error, Clone, PartialEq)]
 pub enum MachineError {
@@ -33,6 +35,9 @@ pub enum MachineError {
     /// An `[actuators]` entry naming no actuator, or a kind the actuator cannot be.
     #[error("{key}: {reason}")]
     Actuator { key: String, reason: String },
+    /// A `[points]` entry the machine cannot take.
+    #[error("{key}: {reason}")]
+    Point { key: String, reason: String },
 }
 
 /// A machine built on a loaded mechanism.
@@ -206,6 +211,7 @@ pub fn default_joint_signals(joint: &Joint) -> [SignalSpec; 2] {
 
 /// Names of the machines the twin knows.
 pub const MACHINES: &[&str] = &[
+    GENERIC,
     "arm",
     "whitworth",
     "feed_axis",
@@ -223,8 +229,25 @@ pub fn build(
     mechanism: &Mechanism,
     process: &toml::Table,
     actuators: &ActuatorSpecs,
+    points: &PointSpecs,
 ) -> Result<Box<dyn Machine>, MachineError> {
+    if let Some(point) = points.keys().next().filter(|_| name != GENERIC) {
+        return Err(MachineError::Point {
+            key: format!("points.{point}"),
+            reason: format!(
+                "the {name} machine has task-space signals of its own; `[points]` are the \
+                 generic machine's (leave `machine` out)"
+            ),
+        });
+    }
+    if name == GENERIC && !process.is_empty() {
+        return Err(MachineError::BadParameters {
+            machine: GENERIC.into(),
+            reason: "it has no process: leave [process] out (loads on points: `[points]`)".into(),
+        });
+    }
     let machine: Box<dyn Machine> = match name {
+        GENERIC => Box::new(generic::Generic::new(mechanism, points)?),
         "arm" => Box::new(arm::Arm::new(mechanism, process, actuators)?),
         "whitworth" => Box::new(whitworth::Whitworth::new(mechanism, process)?),
         "platform" => Box::new(platform::Platform::new(mechanism, process, actuators)?),

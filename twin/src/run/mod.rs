@@ -717,6 +717,7 @@ fn build_machine(
         mechanism,
         &scenario.process,
         &scenario.actuators,
+        &scenario.points,
     )
 }
 

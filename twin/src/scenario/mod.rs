@@ -86,7 +86,9 @@ pub struct Scenario {
     /// What the scenario shows, for the reader.
     #[serde(default)]
     pub description: String,
-    /// Machine kind: `whitworth`, ….
+    /// Machine kind: `whitworth`, …, or `generic` (the default: any planar mechanism, its
+    /// signals the joints' and the `[points]`).
+    #[serde(default = "default_machine")]
     pub machine: String,
     /// URDF path, relative to the scenario file (built-in files are found by this path too).
     pub urdf: String,
@@ -116,6 +118,10 @@ pub struct Scenario {
     /// Machine-specific process parameters (contact forces, geometry checks).
     #[serde(default)]
     pub process: toml::Table,
+    /// The generic machine's task-space points (`[points.<name>]`): their positions and rates
+    /// as signals, and the loads they carry.
+    #[serde(default)]
+    pub points: crate::machines::PointSpecs,
     /// How each actuator turns its command into the joint's effort (`[actuators.<joint>]`, or
     /// `[actuators."*"]` for every one): `kind = "drive"` (the default) through the machine's own
     /// drive, `kind = "effort"` directly, the command the joint's torque or force. Checked
@@ -269,6 +275,10 @@ impl Default for HealthLimits {
             stop_on_collision: false,
         }
     }
+}
+
+fn default_machine() -> String {
+    crate::machines::GENERIC.into()
 }
 
 fn default_gravity() -> [f64; 2] {

@@ -43,6 +43,18 @@ const BAND: f64 = 4.0;
 const REACQUIRE_LIMIT: f64 = 10.0;
 /// CUSUM reference value, in standard deviations of a block mean.
 const REFERENCE: f64 = 0.5;
+/// The least learnt spread of a normalised innovation the tests standardise by: a quarter of
+/// the unit spread of a model that fits. A signal that hardly moved while learning (a held axis
+/// read through a quantised encoder: the same count, an innovation that barely changes) learns
+/// a spread near zero, and the tests would then alarm on the filter's own settling.
+const LEAST_SPREAD: f64 = 0.25;
+/// The least learnt spread of the NIS per degree of freedom, for the same reason: a tenth of
+/// the smallest a χ² per degree of freedom has (√(2/m) for m ≤ 200 signals).
+const LEAST_NIS_SPREAD: f64 = 0.01;
+/// Quarter windows: the NIS window's spread is also learnt from the NIS summed over these.
+const BATCHES_PER_WINDOW: f64 = 4.0;
+/// The least number of learnt quarter windows the batch-means spread is taken from.
+const LEAST_BATCHES: usize = 8;
 
 /// Running sums of one statistic: mean, spread and lag-1 correlation.
 #[derive(Debug, Clone, Default)]
@@ -148,6 +160,9 @@ pub(super) struct Detector {
     signals: Vec<SignalTest>,
     knobs: Vec<KnobTest>,
     nis_learnt: Moments,
+    /// While learning: the NIS summed over quarter windows (start, sum, count), for the
+    /// window's spread by batch means.
+    nis_batches: Vec<(f64, f64, usize)>,
     nis_window: (f64, f64, usize),
     nis_scale: (f64, f64),
     nis_threshold: f64,
@@ -178,6 +193,7 @@ impl Detector {
             start: None,
             learning: true,
             nis_learnt: Moments::default(),
+            nis_batches: Vec::new(),
             nis_window: (0.0, 0.0, 0),
             nis_scale: (0.0, 1.0),
             nis_threshold: f64::INFINITY,
@@ -219,7 +235,7 @@ impl Detector {
             let test = &self.signals[s];
             let (mean, spread) = match self.learning {
                 true => (0.0, 1.0),
-                false => (test.mean, test.learnt.spread().max(1e-12)),
+                false => (test.mean, test.learnt.spread().max(LEAST_SPREAD)),
             };
             (value - mean).abs() <= BAND * spread
         });
@@ -273,6 +289,7 @@ impl Detector {
                     self.signals[s].learnt.add(value);
                 }
                 self.nis_learnt.add(nis_per_dof);
+                self.batch_nis(nis_per_dof, time);
                 return None;
             }
             self.end_learning(time, knobs);
@@ -298,7 +315,7 @@ impl Detector {
             let inflation = (1.0 + rho) / (1.0 - rho);
             test.block = (inflation.ceil() as usize).clamp(1, 50);
             test.mean = test.learnt.mean();
-            let spread = test.learnt.spread().max(1e-12);
+            let spread = test.learnt.spread().max(LEAST_SPREAD);
             test.scale = spread * (inflation / test.block as f64).sqrt();
             test.high_zero = time;
             test.low_zero = time;
@@ -314,8 +331,11 @@ impl Detector {
         let rho = self.nis_learnt.correlation();
         let per_second = self.nis_learnt.count / learnt_for;
         let samples = (per_second * NIS_WINDOW).max(1.0);
-        let spread = self.nis_learnt.spread() * (samples * (1.0 + rho) / (1.0 - rho)).sqrt();
-        self.nis_scale = (self.nis_learnt.mean(), spread.max(1e-12));
+        let spread = self.nis_learnt.spread().max(LEAST_NIS_SPREAD)
+            * (samples * (1.0 + rho) / (1.0 - rho)).sqrt();
+        let mean = self.nis_learnt.mean();
+        let batched = self.batch_means_spread(mean).unwrap_or(0.0);
+        self.nis_scale = (mean, spread.max(batched).max(1e-12));
         for (test, &estimate) in self.knobs.iter_mut().zip(knobs) {
             test.reference = estimate;
             test.calm_since = time;
@@ -355,6 +375,33 @@ impl Detector {
     }
 
     /// The NIS into its window; the window's test when it is full.
+    /// While learning: adds the NIS to the quarter window it falls in.
+    fn batch_nis(&mut self, nis_per_dof: f64, time: f64) {
+        match self.nis_batches.last_mut() {
+            Some((since, sum, count)) if time - *since < NIS_WINDOW / BATCHES_PER_WINDOW => {
+                *sum += nis_per_dof;
+                *count += 1;
+            }
+            _ => self.nis_batches.push((time, nis_per_dof, 1)),
+        }
+    }
+
+    /// The spread of a window's NIS sum about `mean` from the learnt quarter windows' (batch
+    /// means: it holds whatever correlation is shorter than a quarter window, where the lag-1
+    /// correlation alone misses a longer one, as a held axis's quantised readings have), or
+    /// `None` with fewer than [`LEAST_BATCHES`] of them.
+    fn batch_means_spread(&self, mean: f64) -> Option<f64> {
+        // The last quarter is cut short by the end of learning.
+        let whole = &self.nis_batches[..self.nis_batches.len().saturating_sub(1)];
+        if whole.len() < LEAST_BATCHES {
+            return None;
+        }
+        let squares = (whole.iter())
+            .map(|&(_, sum, count)| (sum - count as f64 * mean).powi(2))
+            .sum::<f64>();
+        Some((BATCHES_PER_WINDOW * squares / whole.len() as f64).sqrt())
+    }
+
     fn nis_step(&mut self, nis_per_dof: f64, time: f64) {
         let (since, sum, count) = &mut self.nis_window;
         *sum += nis_per_dof;

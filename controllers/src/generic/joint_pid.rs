@@ -1,0 +1,247 @@
+//! `joint-pid`: one PID loop per actuated joint named in its parameters, on the joint's measured
+//! position and velocity, for any mechanism.
+//!
+//! `u = kp·(r − q) + ki·∫(r − q) dt + kd·(ṙ − q̇)`, clipped to the actuator's effort limit. The
+//! setpoint r is the joint's `target` (held, ṙ = 0), or with `follow_reference` the scenario's
+//! `[reference]` (`reference`, `reference_rate`) plus `target` as an offset. Anti-windup: the
+//! integral stops growing while the effort is clipped. The derivative acts on the measured
+//! velocity (no filter: `<joint>.velocity` is the drive's own speed signal). No gravity
+//! feed-forward: the law knows only what it measures.
+
+use crate::check::{finite, non_negative};
+use framework::{parse_params, Entry, ANY_MACHINE};
+use framework::{Controller, ControllerError, Measurement, PlantInterface, SignalSpec, Unit};
+use serde::Deserialize;
+use std::collections::BTreeMap;
+
+const NAME: &str = "joint-pid";
+
+/// Parameters of `joint-pid`: a loop per joint, by the URDF's joint name.
+#[derive(Debug, Clone, Default, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct JointPidParams {
+    /// `[controller.params.joints.<joint>]`: the joints driven; an actuator not named gets no
+    /// effort.
+    pub joints: BTreeMap<String, JointLoop>,
+}
+
+/// One joint's loop (SI: rad or m, N·m or N).
+#[derive(Debug, Clone, Default, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields, default)]
+pub struct JointLoop {
+    /// Proportional gain, N·m/rad or N/m.
+    pub kp: f64,
+    /// Integral gain, N·m/(rad·s) or N/(m·s).
+    pub ki: f64,
+    /// Derivative gain, N·m·s/rad or N·s/m.
+    pub kd: f64,
+    /// The setpoint held, rad or m; with `follow_reference`, an offset on the reference.
+    pub target: f64,
+    /// Follow the scenario's `[reference]` (its value and rate).
+    pub follow_reference: bool,
+}
+
+/// A loop's gains, checked.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LoopGains {
+    /// The joint, as the URDF names it.
+    pub joint: String,
+    /// Proportional, integral and derivative gains.
+    pub kp: f64,
+    /// Integral gain.
+    pub ki: f64,
+    /// Derivative gain.
+    pub kd: f64,
+    /// Setpoint or offset.
+    pub target: f64,
+    /// Whether the setpoint is the reference's.
+    pub follow_reference: bool,
+}
+
+/// Checks the parameters and returns each loop's gains, in joint-name order.
+pub fn design(params: &JointPidParams) -> Result<Vec<LoopGains>, ControllerError> {
+    if params.joints.is_empty() {
+        return Err(ControllerError::BadParameter {
+            controller: NAME.into(),
+            key: "joints".into(),
+            value: None,
+            reason: "name at least one joint: [controller.params.joints.<joint>] kp = …".into(),
+        });
+    }
+    let mut gains = Vec::with_capacity(params.joints.len());
+    for (joint, l) in &params.joints {
+        let key = |k: &str| format!("joints.{joint}.{k}");
+        gains.push(LoopGains {
+            joint: joint.clone(),
+            kp: non_negative(NAME, &key("kp"), l.kp)?,
+            ki: non_negative(NAME, &key("ki"), l.ki)?,
+            kd: non_negative(NAME, &key("kd"), l.kd)?,
+            target: finite(NAME, &key("target"), l.target)?,
+            follow_reference: l.follow_reference,
+        });
+    }
+    Ok(gains)
+}
+
+/// A loop bound to the plant: where its signals and actuator are, and its state.
+#[derive(Debug, Clone)]
+struct Bound {
+    gains: LoopGains,
+    position: usize,
+    velocity: usize,
+    actuator: usize,
+    limit: f64,
+    integral: f64,
+    error: f64,
+    effort: f64,
+}
+
+/// The running law.
+pub struct JointPid {
+    gains: Vec<LoopGains>,
+    loops: Vec<Bound>,
+    /// The reference's value and rate signals, when a loop follows it.
+    reference: Option<[usize; 2]>,
+}
+
+impl JointPid {
+    /// Checks the parameters; the loops are bound to the plant at `reset`.
+    pub fn new(params: JointPidParams) -> Result<Self, ControllerError> {
+        Ok(Self {
+            gains: design(&params)?,
+            loops: Vec::new(),
+            reference: None,
+        })
+    }
+}
+
+pub(crate) fn entry() -> Entry {
+    Entry {
+        name: NAME,
+        machine: ANY_MACHINE,
+        summary: "a PID loop per actuated joint, on a held target or the scenario's reference",
+        build: |table| Ok(Box::new(JointPid::new(parse_params(NAME, table)?)?)),
+    }
+}
+
+impl Controller for JointPid {
+    fn name(&self) -> &str {
+        NAME
+    }
+
+    fn reset(&mut self, plant: &PlantInterface) -> Result<(), ControllerError> {
+        self.loops.clear();
+        for gains in &self.gains {
+            let actuator = plant.actuator(&gains.joint)?;
+            self.loops.push(Bound {
+                position: plant.signal(&format!("{}.position", gains.joint))?,
+                velocity: plant.signal(&format!("{}.velocity", gains.joint))?,
+                actuator,
+                limit: plant.actuators[actuator].effort_limit,
+                gains: gains.clone(),
+                integral: 0.0,
+                error: 0.0,
+                effort: 0.0,
+            });
+        }
+        self.reference = match self.gains.iter().any(|g| g.follow_reference) {
+            true => Some([plant.signal("reference")?, plant.signal("reference_rate")?]),
+            false => None,
+        };
+        Ok(())
+    }
+
+    fn update(&mut self, measurement: &Measurement, period: f64, efforts: &mut [f64]) {
+        let reference = self.reference.map(|[r, rate]| {
+            let value = |i: usize| measurement.get(i);
+            [value(r), value(rate)]
+        });
+        for l in &mut self.loops {
+            let g = &l.gains;
+            let [r, rate] = match (g.follow_reference, reference) {
+                (true, Some([r, rate])) => [r + g.target, rate],
+                _ => [g.target, 0.0],
+            };
+            l.error = r - measurement.get(l.position);
+            let candidate = l.integral + l.error * period;
+            let rate_error = rate - measurement.get(l.velocity);
+            let effort = g.kp * l.error + g.ki * candidate + g.kd * rate_error;
+            if effort.abs() <= l.limit {
+                l.integral = candidate;
+            }
+            l.effort = effort.clamp(-l.limit, l.limit);
+            efforts[l.actuator] = l.effort;
+        }
+    }
+
+    fn internals(&self) -> Vec<SignalSpec> {
+        (self.gains.iter())
+            .map(|g| SignalSpec::new(format!("{}.error", g.joint), Unit::Dimensionless, "errors"))
+            .collect()
+    }
+
+    fn internal_values(&self, values: &mut [f64]) {
+        for (value, l) in values.iter_mut().zip(&self.loops) {
+            *value = l.error;
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use framework::{Actuator, EffortKind};
+
+    fn plant() -> PlantInterface {
+        PlantInterface {
+            machine: "generic".into(),
+            signals: ["a.position", "a.velocity"].map(String::from).into(),
+            actuators: vec![Actuator {
+                joint: "a".into(),
+                kind: EffortKind::Torque,
+                effort_limit: 10.0,
+            }],
+        }
+    }
+
+    #[test]
+    fn the_law_is_pid_clipped_and_its_integral_stops_while_clipped() {
+        let params: JointPidParams =
+            toml::from_str("[joints.a]\nkp = 100.0\nki = 50.0\nkd = 5.0\ntarget = 0.01").unwrap();
+        let mut pid = JointPid::new(params).unwrap();
+        pid.reset(&plant()).unwrap();
+        let mut efforts = [0.0];
+        let signals = [0.0, 0.2];
+        pid.update(
+            &Measurement {
+                time: 0.0,
+                signals: &signals,
+            },
+            0.1,
+            &mut efforts,
+        );
+        // 100·0.01 + 50·0.001 − 5·0.2 = 0.05
+        assert!((efforts[0] - 0.05).abs() < 1e-12, "{efforts:?}");
+        let far = [-1.0, 0.0];
+        pid.update(
+            &Measurement {
+                time: 0.1,
+                signals: &far,
+            },
+            0.1,
+            &mut efforts,
+        );
+        assert_eq!(efforts[0], 10.0);
+        assert!((pid.loops[0].integral - 0.001).abs() < 1e-15);
+    }
+
+    #[test]
+    fn a_joint_the_plant_does_not_drive_is_named() {
+        let params: JointPidParams = toml::from_str("[joints.b]\nkp = 1.0").unwrap();
+        let mut pid = JointPid::new(params).unwrap();
+        let error = pid.reset(&plant()).unwrap_err().to_string();
+        assert!(error.contains('b'), "{error}");
+        let none = JointPid::new(JointPidParams::default()).err().unwrap();
+        assert!(none.to_string().contains("joints"), "{none}");
+    }
+}
