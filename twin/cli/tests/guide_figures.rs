@@ -8,8 +8,8 @@ use std::path::Path;
 use std::process::Command;
 
 #[test]
-fn the_calibration_chapter_shows_what_its_commands_print() {
-    doc_figures(&["docs/src/calibration.md"]);
+fn the_calibration_and_own_machine_chapters_show_what_their_commands_print() {
+    doc_figures(&["docs/src/calibration.md", "docs/src/own-machine.md"]);
 }
 
 /// One run, in this order: the README's and the live-twin chapter's servers listen on one port.

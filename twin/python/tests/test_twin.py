@@ -33,6 +33,18 @@ def test_a_scenario_describes_itself():
     assert "duration = 0.5" in s.toml
 
 
+def test_the_generic_machine_runs_a_shipped_example_from_its_path():
+    """A scenario with no `machine` (the double pendulum of examples/): its joints, its point
+    and its efforts, and joint-pid holding the targets."""
+    path = Path(__file__).resolve().parents[3] / "examples" / "double-pendulum" / "double-pendulum.toml"
+    s = twin.Scenario(str(path)).duration(2.0)
+    assert (s.machine, s.controller_name) == ("generic", "joint-pid")
+    assert s.actuators == ["shoulder", "elbow"]
+    assert {"shoulder.position", "elbow.velocity", "tip.x", "tip.vy"} <= set(s.signals)
+    result = s.run()
+    assert abs(result.summary["metrics"]["controller_final/shoulder.error"]) < 0.01
+
+
 def test_a_run_matches_the_command_line(tmp_path, twin_cli):
     """The same scenario and --set through Python and through `twin run`: same figures, same
     recorded series (digest), the recording written where asked."""
