@@ -3,13 +3,14 @@
 //!
 //! One module per machine, named as the machine is everywhere in the twin ([`whitworth`], [`arm`],
 //! [`platform`], [`feed_axis`], [`lathe`], [`milling`]), then the models they share: drives
-//! ([`drive`]), references ([`reference`](mod@reference), [`velocity_profile`]) and the
+//! ([`drive`]), first-order filters ([`filters`]), references ([`reference`](mod@reference), [`velocity_profile`]) and the
 //! independent serial-chain dynamics the engine is checked against ([`serial_chain`]).
 
 #![warn(missing_docs)]
 
 pub mod arm;
 pub mod feed_axis;
+pub mod filters;
 pub mod lathe;
 pub mod milling;
 pub mod platform;

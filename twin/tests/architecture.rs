@@ -274,3 +274,38 @@ fn the_library_leaves_the_command_line_crates_to_the_applications() {
         );
     }
 }
+
+/// The engine below the controllers' collection (as Drake's analysis depends on the framework
+/// alone): `twin` takes a registry of controllers and builds none itself; the collection is a
+/// dev-dependency, for its tests and examples. Shared math the two need (first-order filters)
+/// lives in `models`.
+#[test]
+fn the_engine_imports_nothing_from_the_controller_collection() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let manifest = std::fs::read_to_string(root.join("Cargo.toml")).unwrap();
+    let dependencies = manifest
+        .split("[dependencies]")
+        .nth(1)
+        .unwrap()
+        .split("\n[")
+        .next()
+        .unwrap();
+    assert!(
+        !dependencies.contains("\ncontrollers"),
+        "twin's [dependencies] list the controller collection"
+    );
+    for file in sources(&root.join("src")) {
+        let text = std::fs::read_to_string(&file).unwrap();
+        let code = text
+            .lines()
+            .filter(|l| !l.trim_start().starts_with("//"))
+            .take_while(|l| !l.contains("#[cfg(test)]"));
+        for line in code {
+            assert!(
+                !line.contains("use controllers::"),
+                "{}: imports the controller collection: {line}",
+                file.display()
+            );
+        }
+    }
+}

@@ -17,7 +17,7 @@
 
 use super::servo::{ArmServo, ServoParams};
 use crate::check::positive;
-use crate::filters::{FilterError, FirstOrderFilter};
+use crate::filters::{FilterError, FilterParameter, FirstOrderFilter};
 use framework::Event;
 use framework::{parse_params, Entry};
 use framework::{Controller, ControllerError, Measurement, PlantInterface, SignalSpec, Unit};

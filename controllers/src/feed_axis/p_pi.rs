@@ -25,7 +25,7 @@
 //! damped pair at 11.7 rad/s (ζ ≈ 0.17) and a slow real pole at 0.5 rad/s.
 
 use crate::check::{non_negative, positive};
-use crate::filters::FirstOrderFilter;
+use crate::filters::{FilterParameter, FirstOrderFilter};
 use framework::{parse_params, Entry};
 use framework::{
     Controller, ControllerError, EffortKind, Measurement, PlantInterface, SignalSpec, Unit,

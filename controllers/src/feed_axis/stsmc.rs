@@ -30,7 +30,7 @@
 //! N/s or Λ ≥ 50 make the sampled loop, which sees the velocity through the filter, chatter.
 use super::p_pi::{FeedAxis, FeedAxisSample};
 use crate::check::{finite, non_negative, positive, require};
-use crate::filters::FirstOrderFilter;
+use crate::filters::{FilterParameter, FirstOrderFilter};
 use framework::{parse_params, Entry};
 use framework::{Controller, ControllerError, Measurement, PlantInterface, SignalSpec, Unit};
 use serde::Deserialize;

@@ -16,7 +16,7 @@
 use super::guidance::{wheel_actuators, Guide};
 use super::model::PlatformModel;
 use crate::check::{non_negative, positive};
-use crate::filters::FirstOrderFilter;
+use crate::filters::{FilterParameter, FirstOrderFilter};
 use framework::{parse_params, Entry};
 use framework::{Controller, ControllerError, Measurement, PlantInterface, SignalSpec, Unit};
 use serde::Deserialize;

@@ -2,7 +2,7 @@
 //! is on the contour: from the moment it leaves the start point (after the approach) until it
 //! reaches the end.
 
-use controllers::filters::FirstOrderFilter;
+use models::filters::FirstOrderFilter;
 
 /// Distance from the contour's start and end that marks leaving and reaching them, m.
 pub const ON_POINT: f64 = 5e-4;
