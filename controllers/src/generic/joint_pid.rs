@@ -21,7 +21,8 @@ const NAME: &str = "joint-pid";
 #[serde(deny_unknown_fields)]
 pub struct JointPidParams {
     /// `[controller.params.joints.<joint>]`: the joints driven; an actuator not named gets no
-    /// effort.
+    /// effort. At least one is needed to run (checked when bound to the plant).
+    #[serde(default)]
     pub joints: BTreeMap<String, JointLoop>,
 }
 
@@ -60,14 +61,6 @@ pub struct LoopGains {
 
 /// Checks the parameters and returns each loop's gains, in joint-name order.
 pub fn design(params: &JointPidParams) -> Result<Vec<LoopGains>, ControllerError> {
-    if params.joints.is_empty() {
-        return Err(ControllerError::BadParameter {
-            controller: NAME.into(),
-            key: "joints".into(),
-            value: None,
-            reason: "name at least one joint: [controller.params.joints.<joint>] kp = …".into(),
-        });
-    }
     let mut gains = Vec::with_capacity(params.joints.len());
     for (joint, l) in &params.joints {
         let key = |k: &str| format!("joints.{joint}.{k}");
@@ -130,6 +123,15 @@ impl Controller for JointPid {
     }
 
     fn reset(&mut self, plant: &PlantInterface) -> Result<(), ControllerError> {
+        if self.gains.is_empty() {
+            return Err(ControllerError::BadParameter {
+                controller: NAME.into(),
+                key: "joints".into(),
+                value: None,
+                reason: "name at least one joint: [controller.params.joints.<joint>] kp = …"
+                    .into(),
+            });
+        }
         self.loops.clear();
         for gains in &self.gains {
             let actuator = plant.actuator(&gains.joint)?;
@@ -241,7 +243,8 @@ mod tests {
         let mut pid = JointPid::new(params).unwrap();
         let error = pid.reset(&plant()).unwrap_err().to_string();
         assert!(error.contains('b'), "{error}");
-        let none = JointPid::new(JointPidParams::default()).err().unwrap();
-        assert!(none.to_string().contains("joints"), "{none}");
+        let mut none = JointPid::new(JointPidParams::default()).unwrap();
+        let error = none.reset(&plant()).unwrap_err().to_string();
+        assert!(error.contains("joints"), "{error}");
     }
 }
