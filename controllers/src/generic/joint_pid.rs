@@ -128,8 +128,7 @@ impl Controller for JointPid {
                 controller: NAME.into(),
                 key: "joints".into(),
                 value: None,
-                reason: "name at least one joint: [controller.params.joints.<joint>] kp = …"
-                    .into(),
+                reason: "name at least one joint: [controller.params.joints.<joint>] kp = …".into(),
             });
         }
         self.loops.clear();
