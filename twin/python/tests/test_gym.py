@@ -1,6 +1,8 @@
 """The Gymnasium environments: Gymnasium's own checker on every machine, the reward against the
 signals it is defined by, and the episode's ends."""
 
+import pathlib
+
 import gymnasium
 import numpy as np
 import pytest
@@ -80,3 +82,22 @@ def test_the_same_seed_gives_the_same_episode():
         rest = [env.step(np.full(len(env.actuators), 0.2, np.float32))[0] for _ in range(10)]
         return np.vstack([first] + rest)
     np.testing.assert_array_equal(episode(5), episode(5))
+
+
+CART_POLE = str(pathlib.Path(__file__).resolve().parents[3] / "examples" / "cart-pole" / "cart-pole.toml")
+
+
+def test_any_scenario_is_an_environment_with_the_error_it_names():
+    """twin/Generic-v0 on the cart-pole example (the generic machine): the signals observed, the
+    cart's force the action, the cart's distance from 0.3 m per cm the reward."""
+    env = gymnasium.make("twin/Generic-v0", scenario=CART_POLE, signal="cart.position",
+                         reference=0.3, scale=0.01, duration=0.05).unwrapped
+    check_env(env, skip_render_check=True)
+    assert env.actuators == ["cart"] and "bob.x" in env.signals
+    env.reset(seed=1)
+    _, reward, terminated, _, info = env.step(np.zeros(1, dtype=np.float32))
+    cart = env.signals.index("cart.position")
+    assert not terminated
+    assert reward == pytest.approx(-abs(0.3 - env.sim.true_signals[cart]) / 0.01)
+    with pytest.raises(ValueError, match="signal="):
+        gymnasium.make("twin/Generic-v0", scenario=CART_POLE)

@@ -19,6 +19,15 @@ Per step of the environment the plant runs one control period of its scenario.
 
 ``gymnasium.make("twin/Whitworth-v0", duration=1.0, set={"sensors.\\"crank.position\\".noise": 0})``
 changes the scenario as :meth:`twin.Scenario.set` does.
+
+``twin/Generic-v0`` is any scenario, your own mechanism's (the generic machine) or a built-in
+one, with the error you name rewarded::
+
+    env = gymnasium.make("twin/Generic-v0", scenario="examples/cart-pole/cart-pole.toml",
+                         signal="cart.position", reference=0.3, scale=0.01)
+
+``signal`` is the true signal whose error is rewarded, ``reference`` the signal it should follow
+or a constant (default 0), ``scale`` the error that costs -1 per step (default 1, SI).
 """
 
 from __future__ import annotations
@@ -78,6 +87,11 @@ MACHINES = {
 }
 
 
+#: The environment of any scenario, the error rewarded given by its arguments.
+GENERIC = "generic"
+GENERIC_ID = "twin/Generic-v0"
+
+
 class TwinEnv(gymnasium.Env):
     """One machine's plant as a Gymnasium environment (see the module's docstring)."""
 
@@ -90,8 +104,11 @@ class TwinEnv(gymnasium.Env):
         duration: Optional[float] = None,
         set: Optional[Mapping[str, Any]] = None,
         failure_penalty: float = 1.0,
+        signal: Optional[str] = None,
+        reference: Union[str, float, None] = None,
+        scale: float = 1.0,
     ) -> None:
-        self.machine = MACHINES[machine]
+        self.machine = self._machine(machine, scenario, signal, reference, scale)
         built = Scenario(scenario or self.machine.scenario)
         for key, value in (set or {}).items():
             built = built.set(key, value)
@@ -109,6 +126,22 @@ class TwinEnv(gymnasium.Env):
         self._step = 0
         self.action_space = spaces.Box(-1.0, 1.0, (len(self.actuators),), np.float32)
         self.observation_space = spaces.Box(-np.inf, np.inf, (len(self.signals),), np.float64)
+
+    @staticmethod
+    def _machine(name: str, scenario: Optional[str], signal: Optional[str],
+                 reference: Union[str, float, None], scale: float) -> Machine:
+        """The built-in machine `name`, or for ``generic`` the one the arguments describe."""
+        if name != GENERIC:
+            return MACHINES[name]
+        if scenario is None or signal is None:
+            raise ValueError(
+                "twin/Generic-v0 needs scenario= (a scenario file or name) and signal= (the "
+                "true signal whose error is rewarded), with reference= (a signal or a number, "
+                "default 0) and scale= (the error costing -1 per step, default 1)")
+        if not (scale > 0 and np.isfinite(scale)):
+            raise ValueError(f"scale must be a finite number > 0, not {scale}")
+        return Machine(GENERIC_ID, scenario, signal, reference, float(scale),
+                       f"{signal}'s error, per {scale} (SI)")
 
     def _error_of(self, signals: list[str], diagnostics: list[str]):
         """The headline error as a function of the simulator, after a step."""
@@ -156,6 +189,9 @@ def register_environments() -> None:
                 entry_point="twin.gym:TwinEnv",
                 kwargs={"machine": name},
             )
+    if GENERIC_ID not in gymnasium.registry:
+        gymnasium.register(id=GENERIC_ID, entry_point="twin.gym:TwinEnv",
+                           kwargs={"machine": GENERIC})
 
 
 register_environments()
