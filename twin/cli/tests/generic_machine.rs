@@ -463,3 +463,78 @@ fn joint_pid_moves_the_five_bar_and_holds_its_loop_closed() {
     }
     assert!(metric("loop_closure_error_max") < 1e-9, "{summary:#}");
 }
+
+#[test]
+fn the_gantry_moves_free_as_mujoco_moves_it() {
+    // Its spring-damper is the scenario's, not the URDF's: off here, as MuJoCo has none. The
+    // slide is thrown up and falls back within its travel (the twin's limits are hard stops,
+    // MuJoCo's are off).
+    let dir = scratch("generic-machine", "gantry-free");
+    let urdf = urdf_of("gantry", "gantry.urdf");
+    let args = [
+        "--initial",
+        "x=0.05,0.3",
+        "--initial",
+        "y=0.1,0.9",
+        "--torque",
+        "x=0",
+        "--torque",
+        "y=0",
+        "--duration",
+        "0.35",
+        "--dt",
+        "0.001",
+        "--out",
+        "mujoco.csv",
+    ];
+    mujoco_on(&dir, &urdf, &args);
+    let scenario = scenario_of("gantry");
+    let run = [
+        "run",
+        &scenario,
+        "--controller",
+        "passive",
+        "--duration",
+        "0.35",
+        "--set",
+        "points.tool.spring.stiffness=0",
+        "--set",
+        "points.tool.spring.damping=0",
+        "--set",
+        "initial.x.position=0.05",
+        "--set",
+        "initial.x.velocity=0.3",
+        "--set",
+        "initial.y.position=0.1",
+        "--set",
+        "initial.y.velocity=0.9",
+        "--csv",
+        "twin.csv",
+        "--out",
+        "twin.rrd",
+    ];
+    ok(&twin(&run, &dir));
+    let (theirs, ours) = (columns(&dir.join("mujoco.csv")), columns(&dir.join("twin.csv")));
+    for column in ["x.position", "x.velocity", "y.position", "y.velocity"] {
+        let (a, b) = (&theirs[column], &ours[&format!("true.{column}")]);
+        let worst = a.iter().zip(b).map(|(p, q)| (p - q).abs()).fold(0.0, f64::max);
+        assert!(worst <= 1e-6, "{column}: {worst}");
+    }
+}
+
+#[test]
+fn joint_pid_holds_the_gantry_against_its_spring_contact() {
+    let dir = scratch("generic-machine", "gantry-pid");
+    let scenario = scenario_of("gantry");
+    let run = ["run", &scenario, "--csv", "run.csv", "--out", "run.rrd"];
+    ok(&twin(&run, &dir));
+    let table = columns(&dir.join("run.csv"));
+    let last = |name: &str| *table[name].last().unwrap();
+    assert!((last("true.x.position") - 0.1).abs() < 1e-5);
+    assert!((last("true.y.position") + 0.06).abs() < 1e-5);
+    // The tool 10 mm into the spring's rest point (20 kN/m: 200 N up) and the slide's weight
+    // (3 kg): the y motor holds −200 + 29.43 N.
+    let tool_y = last("true.tool.y");
+    let held = -2.0e4 * (-0.35 - tool_y) + 3.0 * 9.81;
+    assert!((last("effort.y") - held).abs() < 2.0, "{} for {held}", last("effort.y"));
+}
