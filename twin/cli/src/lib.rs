@@ -20,6 +20,7 @@ pub mod frf;
 pub mod linearize;
 pub mod list;
 pub mod machine_link;
+pub mod opcua;
 mod reference;
 pub mod reproduce;
 pub mod run;

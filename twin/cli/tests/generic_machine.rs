@@ -412,9 +412,7 @@ fn the_five_bar_falls_free_as_mujoco_lets_it_fall() {
     // Every joint's start as MuJoCo closed the loop (the cranks alone would let the twin
     // assemble it on another branch).
     let joints = ["left", "left_elbow", "right", "right_elbow"];
-    let mut sets: Vec<String> = ["dt=1e-4", "control_period=1e-3"]
-        .map(String::from)
-        .into();
+    let mut sets: Vec<String> = ["dt=1e-4", "control_period=1e-3"].map(String::from).into();
     for joint in joints {
         for state in ["position", "velocity"] {
             let start = theirs[&format!("{joint}.{state}")][0];
@@ -422,7 +420,14 @@ fn the_five_bar_falls_free_as_mujoco_lets_it_fall() {
         }
     }
     let scenario = scenario_of("five-bar");
-    let mut run = vec!["run", &scenario, "--controller", "passive", "--duration", "2"];
+    let mut run = vec![
+        "run",
+        &scenario,
+        "--controller",
+        "passive",
+        "--duration",
+        "2",
+    ];
     for set in &sets {
         run.extend(["--set", set]);
     }
@@ -432,12 +437,19 @@ fn the_five_bar_falls_free_as_mujoco_lets_it_fall() {
     for joint in joints {
         let column = format!("{joint}.position");
         let (a, b) = (&theirs[&column], &ours[&format!("true.{column}")]);
-        let worst = a.iter().zip(b).map(|(x, y)| (x - y).abs()).fold(0.0, f64::max);
+        let worst = a
+            .iter()
+            .zip(b)
+            .map(|(x, y)| (x - y).abs())
+            .fold(0.0, f64::max);
         assert!(worst <= 1e-6, "{column}: {worst}");
     }
     // The end point, from the left chain's angles: the crank from (−0.1, 0) pointing up at
     // zero, its distal link turned −0.3398… rad from it at zero.
-    let (q1, q2) = (&ours["true.left.position"], &ours["true.left_elbow.position"]);
+    let (q1, q2) = (
+        &ours["true.left.position"],
+        &ours["true.left_elbow.position"],
+    );
     for (k, (&a, &b)) in q1.iter().zip(q2).enumerate() {
         let crank = std::f64::consts::FRAC_PI_2 + a;
         let distal = crank - 0.3398369094541218 + b;
@@ -452,7 +464,14 @@ fn the_five_bar_falls_free_as_mujoco_lets_it_fall() {
 fn joint_pid_moves_the_five_bar_and_holds_its_loop_closed() {
     let dir = scratch("generic-machine", "five-bar-pid");
     let scenario = scenario_of("five-bar");
-    let run = ["run", &scenario, "--summary", "run.json", "--out", "run.rrd"];
+    let run = [
+        "run",
+        &scenario,
+        "--summary",
+        "run.json",
+        "--out",
+        "run.rrd",
+    ];
     ok(&twin(&run, &dir));
     let summary: Value =
         serde_json::from_slice(&std::fs::read(dir.join("run.json")).unwrap()).unwrap();
@@ -514,10 +533,17 @@ fn the_gantry_moves_free_as_mujoco_moves_it() {
         "twin.rrd",
     ];
     ok(&twin(&run, &dir));
-    let (theirs, ours) = (columns(&dir.join("mujoco.csv")), columns(&dir.join("twin.csv")));
+    let (theirs, ours) = (
+        columns(&dir.join("mujoco.csv")),
+        columns(&dir.join("twin.csv")),
+    );
     for column in ["x.position", "x.velocity", "y.position", "y.velocity"] {
         let (a, b) = (&theirs[column], &ours[&format!("true.{column}")]);
-        let worst = a.iter().zip(b).map(|(p, q)| (p - q).abs()).fold(0.0, f64::max);
+        let worst = a
+            .iter()
+            .zip(b)
+            .map(|(p, q)| (p - q).abs())
+            .fold(0.0, f64::max);
         assert!(worst <= 1e-6, "{column}: {worst}");
     }
 }
@@ -536,7 +562,11 @@ fn joint_pid_holds_the_gantry_against_its_spring_contact() {
     // (3 kg): the y motor holds −200 + 29.43 N.
     let tool_y = last("true.tool.y");
     let held = -2.0e4 * (-0.35 - tool_y) + 3.0 * 9.81;
-    assert!((last("effort.y") - held).abs() < 2.0, "{} for {held}", last("effort.y"));
+    assert!(
+        (last("effort.y") - held).abs() < 2.0,
+        "{} for {held}",
+        last("effort.y")
+    );
 }
 
 /// MuJoCo's run (`args`, at 10 µs, rows every 1 ms) of example `name`'s URDF, and the twin's
@@ -552,7 +582,14 @@ fn loop_runs(
 ) -> (HashMap<String, Vec<f64>>, HashMap<String, Vec<f64>>) {
     let dir = scratch("generic-machine", &format!("loop-{name}"));
     let mut mujoco_args = args.to_vec();
-    mujoco_args.extend(["--dt", "1e-5", "--control-period", "1e-3", "--out", "mujoco.csv"]);
+    mujoco_args.extend([
+        "--dt",
+        "1e-5",
+        "--control-period",
+        "1e-3",
+        "--out",
+        "mujoco.csv",
+    ]);
     mujoco_on(&dir, &urdf_of(name, urdf), &mujoco_args);
     let theirs = columns(&dir.join("mujoco.csv"));
     let mut all: Vec<String> = ["dt=1e-4", "control_period=1e-3"].map(String::from).into();
@@ -564,7 +601,14 @@ fn loop_runs(
         }
     }
     let scenario = scenario_of(name);
-    let mut run = vec!["run", &scenario, "--controller", "passive", "--duration", "2"];
+    let mut run = vec![
+        "run",
+        &scenario,
+        "--controller",
+        "passive",
+        "--duration",
+        "2",
+    ];
     for set in &all {
         run.extend(["--set", set]);
     }
@@ -579,14 +623,25 @@ fn loop_runs(
 #[test]
 fn the_slider_crank_runs_free_as_mujoco_runs_it() {
     let joints = ["crank", "crank_pin", "ram"];
-    let args = ["--initial", "crank=0.5,3.0", "--torque", "crank=0", "--duration", "2"];
+    let args = [
+        "--initial",
+        "crank=0.5,3.0",
+        "--torque",
+        "crank=0",
+        "--duration",
+        "2",
+    ];
     // The pressing force is the scenario's, not the URDF's: off, as MuJoCo has none.
     let sets = ["points.ram_face.force=[0.0, 0.0]"];
     let (theirs, ours) = loop_runs("slider-crank", "slider_crank.urdf", &joints, &args, &sets);
     for joint in joints {
         let column = format!("{joint}.position");
         let (a, b) = (&theirs[&column], &ours[&format!("true.{column}")]);
-        let worst = a.iter().zip(b).map(|(x, y)| (x - y).abs()).fold(0.0, f64::max);
+        let worst = a
+            .iter()
+            .zip(b)
+            .map(|(x, y)| (x - y).abs())
+            .fold(0.0, f64::max);
         assert!(worst <= 1e-6, "{column}: {worst}");
     }
 }
@@ -595,11 +650,21 @@ fn the_slider_crank_runs_free_as_mujoco_runs_it() {
 fn joint_pid_turns_the_press_against_its_pressing_force() {
     let dir = scratch("generic-machine", "press-pid");
     let scenario = scenario_of("slider-crank");
-    let run = ["run", &scenario, "--summary", "run.json", "--out", "run.rrd"];
+    let run = [
+        "run",
+        &scenario,
+        "--summary",
+        "run.json",
+        "--out",
+        "run.rrd",
+    ];
     ok(&twin(&run, &dir));
     let summary: Value =
         serde_json::from_slice(&std::fs::read(dir.join("run.json")).unwrap()).unwrap();
     let metric = |name: &str| summary["metrics"][name].as_f64().unwrap();
-    assert!(metric("controller_final/crank.error").abs() < 5e-3, "{summary:#}");
+    assert!(
+        metric("controller_final/crank.error").abs() < 5e-3,
+        "{summary:#}"
+    );
     assert!(metric("loop_closure_error_max") < 1e-9, "{summary:#}");
 }

@@ -26,8 +26,8 @@
 
 use super::error::LinkError;
 use super::map::{parse_node_id, Identifier, MappedNode, Namespace, NodeAddress};
-pub use crate::serve::security::Security;
-use crate::serve::security::{self, Pki, Refusal};
+pub use crate::opcua::security::Security;
+use crate::opcua::security::{self, Pki, Refusal};
 use opcua::client::{ClientBuilder, IdentityToken, MonitoredItem, Session, SubscriptionCallbacks};
 use opcua::types::{
     AttributeId, DataChangeFilter, DataChangeTrigger, DataValue, DateTime, ExtensionObject,

@@ -16,9 +16,8 @@
 
 use super::error::LinkError;
 use super::link::date_time;
-use crate::serve::endpoint::{self, Endpoint};
-use crate::serve::units::add_engineering_units;
-use crate::serve::ServeError;
+use crate::opcua::endpoint::{self, Endpoint, EndpointError};
+use crate::opcua::units::add_engineering_units;
 use opcua::server::address_space::{AddressSpace, ObjectBuilder, VariableBuilder};
 use opcua::server::diagnostics::NamespaceMetadata;
 use opcua::server::node_manager::memory::{simple_node_manager, SimpleNodeManager};
@@ -209,17 +208,16 @@ impl ShadowServer {
 }
 
 /// The endpoint's refusal, without `twin serve`'s flag name.
-fn endpoint_error(error: ServeError) -> LinkError {
+fn endpoint_error(error: EndpointError) -> LinkError {
     match error {
-        ServeError::Endpoint { url, reason } => LinkError::Endpoint { url, reason },
-        ServeError::NotLoopback { url, host } => LinkError::Endpoint {
+        EndpointError::Malformed { url, reason } => LinkError::Endpoint { url, reason },
+        EndpointError::NotLoopback { url, host } => LinkError::Endpoint {
             url,
             reason: format!(
                 "{host} is not a loopback address; the shadow serves security policy None only \
                  on 127.0.0.1, ::1 or localhost"
             ),
         },
-        other => LinkError::Server(other.to_string()),
     }
 }
 

@@ -4,7 +4,7 @@
 //! its setpoint offsets), the run's status and the `Advance` method.
 
 use super::shared::{AdvanceRefusal, Shared};
-use super::units::add_engineering_units;
+use crate::opcua::units::add_engineering_units;
 use opcua::server::address_space::{AddressSpace, MethodBuilder, ObjectBuilder, VariableBuilder};
 use opcua::server::node_manager::memory::SimpleNodeManager;
 use opcua::types::{

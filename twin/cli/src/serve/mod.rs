@@ -4,18 +4,15 @@
 
 mod address_space;
 mod controller;
-pub(crate) mod endpoint;
 mod error;
 mod pacing;
 mod publisher;
 mod sampling;
-pub(crate) mod security;
 mod server;
 mod shared;
-pub(crate) mod units;
 
+pub use crate::opcua::{Security, SecurityError, PASSWORD_ENV};
 pub use error::ServeError;
-pub use security::{Security, SecurityError, PASSWORD_ENV};
 
 use crate::failure::Failure;
 use crate::signals::stop_on_signals;
@@ -101,7 +98,7 @@ pub fn serve(args: &ServeArgs, registry: &Registry) -> Result<ExitCode, Failure>
         )));
     }
     let security = server_security(args)?;
-    let endpoint = endpoint::parse_served(
+    let endpoint = crate::opcua::endpoint::parse_served(
         &args.opcua,
         security.security.is_secure(),
         security.user.is_some(),
@@ -203,10 +200,12 @@ fn server_security(args: &ServeArgs) -> Result<ServerSecurity, Failure> {
             if user.is_empty() {
                 return Err(Failure::usage("--user: the user name is empty"));
             }
-            let password = security::read_password(user, file.as_deref()).map_err(|e| match e {
-                SecurityError::Credentials(message) => Failure::usage(message),
-                other => Failure::from(other),
-            })?;
+            let password = crate::opcua::security::read_password(user, file.as_deref()).map_err(
+                |e| match e {
+                    SecurityError::Credentials(message) => Failure::usage(message),
+                    other => Failure::from(other),
+                },
+            )?;
             Some((user.clone(), password))
         }
         (None, Some(file)) => {

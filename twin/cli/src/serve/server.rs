@@ -5,11 +5,11 @@
 //! anonymous session when a user is required).
 
 use super::address_space::{self, Commanding, Nodes};
-use super::endpoint::Endpoint;
 use super::error::ServeError;
 use super::sampling;
-use super::security::{self, Pki, Refusal, Security};
 use super::shared::Shared;
+use crate::opcua::endpoint::Endpoint;
+use crate::opcua::security::{self, Pki, Refusal, Security};
 use opcua::server::authenticator::{
     AuthManager, CoreServerPermissions, DefaultAuthenticator, Password, UserToken,
 };

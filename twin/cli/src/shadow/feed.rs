@@ -7,7 +7,7 @@ use super::ShadowArgs;
 use crate::data_flags::leave_out_unknown;
 use crate::failure::Failure;
 use crate::machine_link::{LinkEvent, LinkOptions, MachineLink, MachineMap};
-use crate::serve::security::read_password;
+use crate::opcua::security::read_password;
 use framework::EventLevel;
 use std::path::Path;
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};

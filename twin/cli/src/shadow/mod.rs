@@ -9,7 +9,7 @@ mod report;
 
 use crate::data_flags::DataFlags;
 use crate::failure::Failure;
-use crate::serve::Security;
+use crate::opcua::Security;
 use crate::signals::stop_on_signals;
 use feed::Feed;
 use framework::Registry;

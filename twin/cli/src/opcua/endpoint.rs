@@ -1,8 +1,34 @@
 //! The `--opcua` URL: `opc.tcp://HOST[:PORT]`, and whether it may be served: a loopback address
 //! always, any other only with security (Sign or SignAndEncrypt) and a user.
 
-use super::error::ServeError;
 use std::net::{IpAddr, Ipv4Addr, SocketAddr};
+use thiserror::Error;
+
+/// A URL that cannot be served; each is one line naming what to change.
+#[derive(Debug, Error, Clone, PartialEq)]
+pub enum EndpointError {
+    /// The URL is not `opc.tcp://HOST:PORT`.
+    #[error("--opcua {url}: {reason}")]
+    Malformed {
+        /// The URL as given.
+        url: String,
+        /// What is wrong with it.
+        reason: String,
+    },
+    /// The host is not a loopback address, and the server is not secured: security policy None
+    /// and anonymous sessions are only served on loopback.
+    #[error(
+        "--opcua {url}: {host} is not a loopback address; serving beyond 127.0.0.1, ::1 or \
+         localhost needs --security sign-encrypt (or sign) and --user NAME with its password \
+         (--password-file FILE or TWIN_OPCUA_PASSWORD)"
+    )]
+    NotLoopback {
+        /// The URL as given.
+        url: String,
+        /// Its host.
+        host: String,
+    },
+}
 
 /// OPC UA's registered port, used when the URL gives none.
 const DEFAULT_PORT: u16 = 4840;
@@ -20,10 +46,10 @@ pub struct Endpoint {
 
 /// Parses `opc.tcp://HOST[:PORT][/]`: HOST an IP literal (IPv6 in brackets) or `localhost`;
 /// refuses any address that is not loopback.
-pub fn parse(url: &str) -> Result<Endpoint, ServeError> {
+pub fn parse(url: &str) -> Result<Endpoint, EndpointError> {
     let endpoint = parse_any(url)?;
     if !endpoint.addr.ip().is_loopback() {
-        return Err(ServeError::NotLoopback {
+        return Err(EndpointError::NotLoopback {
             url: url.to_string(),
             host: endpoint.host,
         });
@@ -33,7 +59,7 @@ pub fn parse(url: &str) -> Result<Endpoint, ServeError> {
 
 /// Parses `opc.tcp://HOST[:PORT][/]` as [`parse`] does, and accepts a host beyond loopback only
 /// when the server is `secure` (Sign or SignAndEncrypt) and asks for a user's password.
-pub fn parse_served(url: &str, secure: bool, user: bool) -> Result<Endpoint, ServeError> {
+pub fn parse_served(url: &str, secure: bool, user: bool) -> Result<Endpoint, EndpointError> {
     if secure && user {
         parse_any(url)
     } else {
@@ -42,8 +68,8 @@ pub fn parse_served(url: &str, secure: bool, user: bool) -> Result<Endpoint, Ser
 }
 
 /// Parses `opc.tcp://HOST[:PORT][/]`, any address.
-fn parse_any(url: &str) -> Result<Endpoint, ServeError> {
-    let bad = |reason: &str| ServeError::Endpoint {
+fn parse_any(url: &str) -> Result<Endpoint, EndpointError> {
+    let bad = |reason: &str| EndpointError::Malformed {
         url: url.to_string(),
         reason: reason.to_string(),
     };
@@ -127,7 +153,7 @@ mod tests {
         for (secure, user) in [(false, false), (true, false), (false, true)] {
             assert!(matches!(
                 parse_served(url, secure, user),
-                Err(ServeError::NotLoopback { .. })
+                Err(EndpointError::NotLoopback { .. })
             ));
         }
         assert_eq!(parse_served(url, true, true).unwrap().addr.port(), 4840);
