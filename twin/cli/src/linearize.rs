@@ -2,7 +2,7 @@
 
 use crate::engine_option::parse_engine;
 use crate::failure::Failure;
-use crate::reproduce::engine_override;
+use crate::engine_option::engine_override;
 use framework::Registry;
 use std::path::PathBuf;
 use std::process::ExitCode;

@@ -3,7 +3,7 @@
 
 use crate::engine_option::parse_engine;
 use crate::failure::{Failure, EXIT_DIVERGED};
-use crate::reproduce::engine_override;
+use crate::engine_option::engine_override;
 use crate::signals::stop_on_signals;
 use framework::Registry;
 use std::path::{Path, PathBuf};

@@ -2,7 +2,7 @@
 
 use crate::engine_option::parse_engine;
 use crate::failure::Failure;
-use crate::reproduce::engine_override;
+use crate::engine_option::engine_override;
 use crate::signals::stop_on_signals;
 use crate::study::{self, RecordMode, Shard, Spec, Study, StudyOptions};
 use framework::Registry;

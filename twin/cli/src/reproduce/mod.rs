@@ -112,14 +112,6 @@ pub enum ReproduceError {
     EngineFixed { paper: String },
 }
 
-/// `--engine` as the `--set` it equals (none when not given).
-pub fn engine_override(engine: Option<Engine>) -> Vec<String> {
-    engine
-        .map(|e| format!("solver.engine={}", e.name()))
-        .into_iter()
-        .collect()
-}
-
 /// A built-in scenario on the engine given (its own when none).
 fn builtin(name: &str, engine: Option<Engine>) -> Result<ScenarioBuilder, ScenarioError> {
     let builder = Scenario::builtin(name)?;

@@ -147,7 +147,7 @@ fn run_one(
         scenario,
         &Overrides {
             controller: Some(controller.to_string()),
-            set: super::engine_override(engine),
+            set: crate::engine_option::engine_override(engine),
             ..Default::default()
         },
         registry,
