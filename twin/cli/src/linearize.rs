@@ -1,8 +1,8 @@
 //! `twin linearize`: a scenario's plant linearised at an operating point, into linear.json.
 
+use crate::engine_option::engine_override;
 use crate::engine_option::parse_engine;
 use crate::failure::Failure;
-use crate::engine_option::engine_override;
 use framework::Registry;
 use std::path::PathBuf;
 use std::process::ExitCode;

@@ -1,9 +1,9 @@
 //! `twin run`: one scenario run headless into an .rrd recording, with its summary and, when
 //! asked, its commands and signals as a CSV or Parquet data file.
 
+use crate::engine_option::engine_override;
 use crate::engine_option::parse_engine;
 use crate::failure::{Failure, EXIT_DIVERGED};
-use crate::engine_option::engine_override;
 use crate::signals::stop_on_signals;
 use framework::Registry;
 use std::path::{Path, PathBuf};

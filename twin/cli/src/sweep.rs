@@ -1,8 +1,8 @@
 //! `twin sweep`: a study run from the command line, and `twin sweep merge` joining its shards.
 
+use crate::engine_option::engine_override;
 use crate::engine_option::parse_engine;
 use crate::failure::Failure;
-use crate::engine_option::engine_override;
 use crate::signals::stop_on_signals;
 use crate::study::{self, RecordMode, Shard, Spec, Study, StudyOptions};
 use framework::Registry;
