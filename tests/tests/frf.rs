@@ -177,7 +177,24 @@ fn error(args: &FrfArgs) -> String {
 #[test]
 fn bad_frf_input_is_refused_naming_the_argument() {
     let base = tap("tool_x", Excitation::Impulse);
-    let cases: Vec<(FrfArgs, &[&str])> = vec![
+    let mut cases = measurement_cases(&base);
+    cases.extend(excitation_and_scenario_cases(&base));
+    for (args, words) in cases {
+        let message = error(&args);
+        assert!(!message.contains('\n'), "{message}");
+        for word in words {
+            assert!(message.contains(word), "`{word}` not in: {message}");
+        }
+    }
+}
+
+/// A bad tap test (arguments, the words its refusal must name).
+type Case = (FrfArgs, &'static [&'static str]);
+
+/// Bad measurements: an unknown input or output, a band beyond Nyquist or finer than the
+/// segment resolves, a segment not a power of two, no averages, a rate the time step cannot give.
+fn measurement_cases(base: &FrfArgs) -> Vec<Case> {
+    vec![
         (
             FrfArgs {
                 input: "tool_z".into(),
@@ -227,6 +244,13 @@ fn bad_frf_input_is_refused_naming_the_argument() {
             },
             &["--rate", "dt"],
         ),
+    ]
+}
+
+/// Bad excitations and scenarios: an amplitude not finite or over the drive's limit, a misspelt
+/// `--set`, an unknown scenario.
+fn excitation_and_scenario_cases(base: &FrfArgs) -> Vec<Case> {
+    vec![
         (
             FrfArgs {
                 amplitude: Some(f64::NAN),
@@ -258,14 +282,7 @@ fn bad_frf_input_is_refused_naming_the_argument() {
             },
             &["scenario", "no-such-scenario"],
         ),
-    ];
-    for (args, words) in cases {
-        let message = error(&args);
-        assert!(!message.contains('\n'), "{message}");
-        for word in words {
-            assert!(message.contains(word), "`{word}` not in: {message}");
-        }
-    }
+    ]
 }
 
 #[test]

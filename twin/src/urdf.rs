@@ -744,27 +744,8 @@ impl Loader<'_> {
                     ),
                 ));
             }
-            let number = |attribute: &str, default: Option<f64>| -> Result<f64, UrdfError> {
-                let value = match (node.attribute(attribute), default) {
-                    (Some(text), _) => text.trim().parse::<f64>().map_err(|_| {
-                        self.invalid(
-                            element.clone(),
-                            format!("{attribute}=\"{text}\" is not a number"),
-                        )
-                    })?,
-                    (None, Some(value)) => value,
-                    (None, None) => {
-                        return Err(self.invalid(element.clone(), format!("missing {attribute}=…")))
-                    }
-                };
-                if value.is_finite() && value > 0.0 {
-                    Ok(value)
-                } else {
-                    Err(self.invalid(
-                        element.clone(),
-                        format!("{attribute} must be > 0, got {value}"),
-                    ))
-                }
+            let number = |attribute: &str, default: Option<f64>| {
+                self.positive_number(&node, attribute, default, &element)
             };
             let radius = number("radius", None)?;
             let width = number("width", Some(0.5 * radius))?;
@@ -818,6 +799,29 @@ impl Loader<'_> {
             rpy: urdf_rs::Vec3(rpy),
         };
         Ok((link, self.planar_pose(&pose, &at)?))
+    }
+
+    /// The attribute `name` of `node` (element `at`), a number > 0; `default` when absent, if
+    /// any.
+    fn positive_number(
+        &self,
+        node: &roxmltree::Node,
+        name: &str,
+        default: Option<f64>,
+        at: &str,
+    ) -> Result<f64, UrdfError> {
+        let value = match (node.attribute(name), default) {
+            (Some(text), _) => text.trim().parse::<f64>().map_err(|_| {
+                self.invalid(at.to_string(), format!("{name}=\"{text}\" is not a number"))
+            })?,
+            (None, Some(value)) => value,
+            (None, None) => return Err(self.invalid(at.to_string(), format!("missing {name}=…"))),
+        };
+        if value.is_finite() && value > 0.0 {
+            Ok(value)
+        } else {
+            Err(self.invalid(at.to_string(), format!("{name} must be > 0, got {value}")))
+        }
     }
 
     /// Three numbers from an attribute; a missing attribute reads as zeros, as in URDF.

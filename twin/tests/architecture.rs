@@ -1,6 +1,6 @@
 //! The library's shape, read from its source: no two modules import each other, directly or
-//! around a circle (in the engine and in the applications on it), and the library does not
-//! depend on the applications' crates.
+//! around a circle (in the engine and in the applications on it), the library does not depend
+//! on the applications' crates, and every source file opens with a `//!` line saying what it is.
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
@@ -308,4 +308,40 @@ fn the_engine_imports_nothing_from_the_controller_collection() {
             );
         }
     }
+}
+
+/// The folders of Rust files beside the crates' sources: integration tests and examples.
+const TESTS_AND_EXAMPLES: [&str; 4] = [
+    "twin/tests",
+    "twin/cli/tests",
+    "twin/examples",
+    "twin/fmu/examples",
+];
+
+#[test]
+fn every_source_file_opens_with_its_doc() {
+    let root = workspace();
+    let mut files = Vec::new();
+    for folder in CRATES.iter().chain(&TESTS_AND_EXAMPLES) {
+        files.extend(sources(&root.join(folder)));
+    }
+    files.retain(|file| {
+        let relative = file.strip_prefix(&root).unwrap();
+        !relative.components().any(|c| c.as_os_str() == "target")
+    });
+    let undocumented: Vec<String> = files
+        .iter()
+        .filter(|file| {
+            let text = std::fs::read_to_string(file).unwrap();
+            !text.lines().next().is_some_and(|l| l.starts_with("//!"))
+        })
+        .map(|file| file.strip_prefix(&root).unwrap().display().to_string())
+        .collect();
+    assert!(
+        undocumented.is_empty(),
+        "these files do not open with a `//!` line saying what they are: {}",
+        undocumented.join(", ")
+    );
+    // The check reads something: the workspace has hundreds of source files.
+    assert!(files.len() > 200, "{} files", files.len());
 }

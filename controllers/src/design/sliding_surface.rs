@@ -150,6 +150,61 @@ pub fn optimal_hyperplane(
     b: &DMatrix<f64>,
     q: &DMatrix<f64>,
 ) -> Result<SlidingHyperplane, SlidingSurfaceError> {
+    check_system(a, b, q)?;
+    let q = checked_weight(q)?;
+
+    let sv = SVD::new(b.clone(), false, false).singular_values;
+    let ratio = sv.min() / sv.max();
+    if ratio.is_nan() || ratio <= RANK_TOL {
+        return Err(SlidingSurfaceError::InputRankDeficient { ratio });
+    }
+
+    let RegularForm {
+        null_rows,
+        b_pinv,
+        transform,
+        transform_inv,
+    } = regular_form(b, ratio)?;
+    let (n, m) = (a.nrows(), b.ncols());
+    let p = n - m;
+
+    // Perrusquía eqs (16)–(17) and (21) (congruence for the weight).
+    let a_bar = &transform * a * &transform_inv;
+    let q_bar_full = symmetric_part(&(transform_inv.transpose() * &q * &transform_inv));
+    let a11 = a_bar.view((0, 0), (p, p)).into_owned();
+    let a12 = a_bar.view((0, p), (p, m)).into_owned();
+    let q11 = q_bar_full.view((0, 0), (p, p)).into_owned();
+    let q12 = q_bar_full.view((0, p), (p, m)).into_owned();
+    let q22 = q_bar_full.view((p, p), (m, m)).into_owned();
+    let q22_chol =
+        Cholesky::new(q22.clone()).ok_or(SlidingSurfaceError::InputDirectionsUnweighted)?;
+    let q22_inv_q12t = q22_chol.solve(&q12.transpose());
+
+    // Perrusquía eqs (22)–(25).
+    let a_reduced = &a11 - &a12 * &q22_inv_q12t;
+    let q_reduced = symmetric_part(&(&q11 - &q12 * &q22_inv_q12t));
+    let reduced = solve_care(&a_reduced, &a12, &q_reduced, &q22)?;
+    let riccati = reduced.x;
+
+    // Perrusquía eq (26) and C = [C₁, I]·T.
+    let c1 = q22_chol.solve(&(a12.transpose() * &riccati + q12.transpose()));
+    let c = &c1 * &null_rows + &b_pinv;
+    let sliding_matrix = &a11 - &a12 * &c1;
+    Ok(SlidingHyperplane {
+        c,
+        transform,
+        c1,
+        riccati,
+        sliding_matrix,
+    })
+}
+
+/// Checks that A is square, B is n×m with 1 ≤ m < n, Q is n×n, and all three are finite.
+fn check_system(
+    a: &DMatrix<f64>,
+    b: &DMatrix<f64>,
+    q: &DMatrix<f64>,
+) -> Result<(), SlidingSurfaceError> {
     let (n, m) = (a.nrows(), b.ncols());
     if n == 0 || !a.is_square() {
         return Err(SlidingSurfaceError::DimensionMismatch(format!(
@@ -177,14 +232,24 @@ pub fn optimal_hyperplane(
             return Err(SlidingSurfaceError::NonFinite { matrix: name });
         }
     }
-    let q = checked_weight(q)?;
+    Ok(())
+}
 
-    let sv = SVD::new(b.clone(), false, false).singular_values;
-    let ratio = sv.min() / sv.max();
-    if ratio.is_nan() || ratio <= RANK_TOL {
-        return Err(SlidingSurfaceError::InputRankDeficient { ratio });
-    }
+/// The regular form's change of coordinates `Ψ = T·e` (Perrusquía eqs (14)–(16)).
+struct RegularForm {
+    /// N: orthonormal rows spanning the left null space of B (`N·B = 0`), p×n.
+    null_rows: DMatrix<f64>,
+    /// B† = (BᵀB)⁻¹Bᵀ, m×n.
+    b_pinv: DMatrix<f64>,
+    /// T = [N; B†].
+    transform: DMatrix<f64>,
+    /// T⁻¹ = [Nᵀ, B].
+    transform_inv: DMatrix<f64>,
+}
 
+/// The regular form of B (full column rank; `ratio` is its singular-value ratio, for the error).
+fn regular_form(b: &DMatrix<f64>, ratio: f64) -> Result<RegularForm, SlidingSurfaceError> {
+    let (n, m) = (b.nrows(), b.ncols());
     // Perrusquía eq (15). Householder QR of [B, I] yields a full orthogonal factor whose first m
     // columns span range(B) (B has full rank), so the remaining columns span its orthogonal
     // complement.
@@ -217,35 +282,11 @@ pub fn optimal_hyperplane(
         .view_mut((0, 0), (n, p))
         .copy_from(&null_rows.transpose());
     transform_inv.view_mut((0, p), (n, m)).copy_from(b);
-
-    // Perrusquía eqs (16)–(17) and (21) (congruence for the weight).
-    let a_bar = &transform * a * &transform_inv;
-    let q_bar_full = symmetric_part(&(transform_inv.transpose() * &q * &transform_inv));
-    let a11 = a_bar.view((0, 0), (p, p)).into_owned();
-    let a12 = a_bar.view((0, p), (p, m)).into_owned();
-    let q11 = q_bar_full.view((0, 0), (p, p)).into_owned();
-    let q12 = q_bar_full.view((0, p), (p, m)).into_owned();
-    let q22 = q_bar_full.view((p, p), (m, m)).into_owned();
-    let q22_chol =
-        Cholesky::new(q22.clone()).ok_or(SlidingSurfaceError::InputDirectionsUnweighted)?;
-    let q22_inv_q12t = q22_chol.solve(&q12.transpose());
-
-    // Perrusquía eqs (22)–(25).
-    let a_reduced = &a11 - &a12 * &q22_inv_q12t;
-    let q_reduced = symmetric_part(&(&q11 - &q12 * &q22_inv_q12t));
-    let reduced = solve_care(&a_reduced, &a12, &q_reduced, &q22)?;
-    let riccati = reduced.x;
-
-    // Perrusquía eq (26) and C = [C₁, I]·T.
-    let c1 = q22_chol.solve(&(a12.transpose() * &riccati + q12.transpose()));
-    let c = &c1 * &null_rows + &b_pinv;
-    let sliding_matrix = &a11 - &a12 * &c1;
-    Ok(SlidingHyperplane {
-        c,
+    Ok(RegularForm {
+        null_rows,
+        b_pinv,
         transform,
-        c1,
-        riccati,
-        sliding_matrix,
+        transform_inv,
     })
 }
 

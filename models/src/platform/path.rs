@@ -205,45 +205,7 @@ pub struct Path {
 impl Path {
     /// Builds the path from `spec`, starting at `start` (m) with heading `heading` (rad).
     pub fn new(spec: &PathSpec, start: [f64; 2], heading: f64) -> Result<Self, PathError> {
-        let mut shapes = Vec::new();
-        for (segment, item) in spec.segments.iter().enumerate() {
-            let check = |name: &'static str, value: f64| {
-                if value.is_finite() && value >= 0.0 {
-                    Ok(value)
-                } else {
-                    Err(PathError::NegativeLength {
-                        segment,
-                        name,
-                        value,
-                    })
-                }
-            };
-            match *item {
-                Segment::Straight { length } => shapes.push((check("length", length)?, 0.0, 0.0)),
-                Segment::Curve {
-                    radius,
-                    clothoid_length,
-                    arc_length,
-                } => {
-                    let clothoid = check("clothoid_length", clothoid_length)?;
-                    let arc = check("arc_length", arc_length)?;
-                    if !(radius.is_finite() && radius != 0.0) {
-                        return Err(PathError::BadRadius {
-                            segment,
-                            value: radius,
-                        });
-                    }
-                    let kappa = 1.0 / radius;
-                    if clothoid > 0.0 {
-                        shapes.push((clothoid, 0.0, kappa / clothoid));
-                    }
-                    shapes.push((arc, kappa, 0.0));
-                    if clothoid > 0.0 {
-                        shapes.push((clothoid, kappa, -kappa / clothoid));
-                    }
-                }
-            }
-        }
+        let shapes = Self::shapes(spec)?;
         for (name, value) in [
             ("speed", spec.speed),
             ("acceleration_time", spec.acceleration_time),
@@ -287,6 +249,51 @@ impl Path {
             speed: spec.speed,
             acceleration_time: spec.acceleration_time,
         })
+    }
+
+    /// The segments of `spec` as pieces of linear curvature, in order: `(length, curvature at
+    /// the start, curvature rate)` (a curve is clothoid, arc, clothoid; zero lengths kept).
+    fn shapes(spec: &PathSpec) -> Result<Vec<(f64, f64, f64)>, PathError> {
+        let mut shapes = Vec::new();
+        for (segment, item) in spec.segments.iter().enumerate() {
+            let check = |name: &'static str, value: f64| {
+                if value.is_finite() && value >= 0.0 {
+                    Ok(value)
+                } else {
+                    Err(PathError::NegativeLength {
+                        segment,
+                        name,
+                        value,
+                    })
+                }
+            };
+            match *item {
+                Segment::Straight { length } => shapes.push((check("length", length)?, 0.0, 0.0)),
+                Segment::Curve {
+                    radius,
+                    clothoid_length,
+                    arc_length,
+                } => {
+                    let clothoid = check("clothoid_length", clothoid_length)?;
+                    let arc = check("arc_length", arc_length)?;
+                    if !(radius.is_finite() && radius != 0.0) {
+                        return Err(PathError::BadRadius {
+                            segment,
+                            value: radius,
+                        });
+                    }
+                    let kappa = 1.0 / radius;
+                    if clothoid > 0.0 {
+                        shapes.push((clothoid, 0.0, kappa / clothoid));
+                    }
+                    shapes.push((arc, kappa, 0.0));
+                    if clothoid > 0.0 {
+                        shapes.push((clothoid, kappa, -kappa / clothoid));
+                    }
+                }
+            }
+        }
+        Ok(shapes)
     }
 
     /// Total arc length, m.

@@ -237,6 +237,12 @@ fn bad_inputs_end_with_their_reason_before_any_work() {
     let stderr = String::from_utf8_lossy(&output.stderr);
     assert_eq!(output.status.code(), Some(2), "{stderr}");
     assert!(stderr.contains("[calibration.noise]"), "{stderr}");
+    compare_refuses_a_fifo_and_ends_quietly_in_a_pipe(&dir);
+}
+
+/// `twin compare` refuses a FIFO as its data (not a regular file), and ends quietly when the
+/// reader of its output (`head -1`) stops early.
+fn compare_refuses_a_fifo_and_ends_quietly_in_a_pipe(dir: &Path) {
     #[cfg(unix)]
     {
         let fifo = dir.join("fifo.csv");
@@ -244,7 +250,7 @@ fn bad_inputs_end_with_their_reason_before_any_work() {
         if made.is_ok_and(|s| s.success()) {
             let output = twin(
                 &["compare", "whitworth-crank-pi", "--data", "fifo.csv"],
-                &dir,
+                dir,
             );
             let stderr = String::from_utf8_lossy(&output.stderr);
             assert_eq!(output.status.code(), Some(1), "{stderr}");
@@ -257,7 +263,7 @@ fn bad_inputs_end_with_their_reason_before_any_work() {
             "{} compare whitworth-crank-pi --data run.csv | head -1",
             env!("CARGO_BIN_EXE_twin")
         ))
-        .current_dir(&dir)
+        .current_dir(dir)
         .output()
         .unwrap();
     let stderr = String::from_utf8_lossy(&piped.stderr);

@@ -4,7 +4,7 @@
 mod common;
 
 use common::twin;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 fn scratch(test: &str) -> PathBuf {
     common::scratch("cli", test)
@@ -445,7 +445,12 @@ fn frf_writes_the_tap_test_and_refuses_bad_input() {
     assert!(csv.starts_with("frequency_hz,magnitude,phase_deg,coherence,real,imag\n"));
     assert_eq!(csv.lines().count(), 1 + 2049);
     assert!(std::fs::metadata(dir.join("tap/frf.rrd")).unwrap().len() > 0);
+    frf_refuses_bad_input(&dir);
+}
 
+/// `twin frf` refusing an unknown excitation, an amplitude over the actuator's limit and a band
+/// beyond Nyquist, and a tap test that diverges leaving no output folder.
+fn frf_refuses_bad_input(dir: &Path) {
     let unknown = twin(
         &[
             "frf",
@@ -457,7 +462,7 @@ fn frf_writes_the_tap_test_and_refuses_bad_input() {
             "--excitation",
             "hammer",
         ],
-        &dir,
+        dir,
     );
     assert_eq!(unknown.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&unknown.stderr).contains("hammer"));
@@ -507,7 +512,7 @@ fn frf_writes_the_tap_test_and_refuses_bad_input() {
             "--out-dir",
             "diverged",
         ],
-        &dir,
+        dir,
     );
     assert_eq!(diverged.status.code(), Some(3));
     assert!(String::from_utf8_lossy(&diverged.stderr).contains("tool_x.velocity"));

@@ -122,28 +122,7 @@ impl Platform {
         process: &toml::Table,
         actuators: &ActuatorSpecs,
     ) -> Result<Self, MachineError> {
-        let bad = |reason: String| MachineError::BadParameters {
-            machine: "platform".into(),
-            reason,
-        };
-        let params: ProcessParams = process_params("platform", process)?;
-        params.tyre.validate().map_err(|e| bad(e.to_string()))?;
-        params.motor.validate().map_err(bad)?;
-        // Up to 10 g: beyond that no tyre model here holds.
-        if !(params.floor_gravity > 0.0 && params.floor_gravity <= 100.0) {
-            return Err(bad(format!(
-                "floor_gravity must be in (0, 100] m/s², got {}",
-                params.floor_gravity
-            )));
-        }
-        if params.point_h.iter().any(|v| !v.is_finite()) || params.point_h[0] <= 0.0 {
-            return Err(bad(
-                "point_h must be ahead of the axle (x > 0): otherwise H cannot be steered".into(),
-            ));
-        }
-        if let Some(mu) = params.friction.filter(|mu| !(mu.is_finite() && *mu > 0.0)) {
-            return Err(bad(format!("friction must be > 0, got {mu}")));
-        }
+        let params = checked_params(process)?;
         let chassis = link("platform", mechanism, &params.chassis)?;
         if mechanism
             .wheels
@@ -163,61 +142,8 @@ impl Platform {
         let path =
             Path::new(&params.path, start, start_pose.angle).map_err(|e| bad(e.to_string()))?;
 
-        let (mut mass, mut moment) = (0.0, [0.0, 0.0]);
-        for (pose, link) in poses.iter().zip(&mechanism.links) {
-            if let Some(inertial) = link.inertial {
-                let [x, y] = pose.apply(inertial.centre_of_mass[0], inertial.centre_of_mass[1]);
-                mass += inertial.mass;
-                moment = [moment[0] + inertial.mass * x, moment[1] + inertial.mass * y];
-            }
-        }
-        let contacts: Vec<[f64; 2]> = mechanism
-            .wheels
-            .iter()
-            .map(|w| poses[w.link].apply(w.origin.x, w.origin.y))
-            .collect();
-        let loads = static_normal_loads(
-            mass,
-            [moment[0] / mass, moment[1] / mass],
-            &contacts,
-            params.floor_gravity,
-        )
-        .map_err(|e| bad(e.to_string()))?;
-
-        let mut actuators = Vec::new();
-        let mut wheels = Vec::new();
-        for (wheel, normal_load) in mechanism.wheels.iter().zip(loads) {
-            let actuator = wheel.effort_limit.map(|limit| {
-                actuators.push(Actuator {
-                    joint: wheel.name.clone(),
-                    kind: EffortKind::Torque,
-                    effort_limit: limit,
-                });
-                actuators.len() - 1
-            });
-            let reflected = if actuator.is_some() {
-                params.motor.reflected_inertia()
-            } else {
-                0.0
-            };
-            let [hx, hy] = wheel.heading();
-            wheels.push(WheelState {
-                name: wheel.name.clone(),
-                link: wheel.link,
-                origin: wheel.origin,
-                heading: wheel.origin.rotate(hx, hy),
-                radius: wheel.radius,
-                friction: params.friction.unwrap_or(wheel.friction),
-                inertia: wheel.spin_inertia + reflected,
-                normal_load,
-                actuator,
-                motor: Motor::default(),
-                drive_torque: 0.0,
-                spin: 0.0,
-                angle: 0.0,
-                slip: [0.0; 2],
-            });
-        }
+        let loads = static_loads(mechanism, &poses, params.floor_gravity)?;
+        let (actuators, wheels) = wheel_states(mechanism, loads, &params);
         Ok(Self {
             chassis,
             point_h: params.point_h,
@@ -237,6 +163,109 @@ impl Platform {
     fn driven(&self) -> impl Iterator<Item = &WheelState> {
         self.wheels.iter().filter(|w| w.actuator.is_some())
     }
+}
+
+/// A refusal of the platform's parameters.
+fn bad(reason: String) -> MachineError {
+    MachineError::BadParameters {
+        machine: "platform".into(),
+        reason,
+    }
+}
+
+/// The `[process]` table, read and checked (tyre, motor, floor gravity, point H, friction).
+fn checked_params(process: &toml::Table) -> Result<ProcessParams, MachineError> {
+    let params: ProcessParams = process_params("platform", process)?;
+    params.tyre.validate().map_err(|e| bad(e.to_string()))?;
+    params.motor.validate().map_err(bad)?;
+    // Up to 10 g: beyond that no tyre model here holds.
+    if !(params.floor_gravity > 0.0 && params.floor_gravity <= 100.0) {
+        return Err(bad(format!(
+            "floor_gravity must be in (0, 100] m/s², got {}",
+            params.floor_gravity
+        )));
+    }
+    if params.point_h.iter().any(|v| !v.is_finite()) || params.point_h[0] <= 0.0 {
+        return Err(bad(
+            "point_h must be ahead of the axle (x > 0): otherwise H cannot be steered".into(),
+        ));
+    }
+    if let Some(mu) = params.friction.filter(|mu| !(mu.is_finite() && *mu > 0.0)) {
+        return Err(bad(format!("friction must be > 0, got {mu}")));
+    }
+    Ok(params)
+}
+
+/// Each wheel's static normal load, N: the mechanism's weight under `floor_gravity`, shared by
+/// the wheel contacts at the zero pose `poses`.
+fn static_loads(
+    mechanism: &Mechanism,
+    poses: &[Pose2],
+    floor_gravity: f64,
+) -> Result<Vec<f64>, MachineError> {
+    let (mut mass, mut moment) = (0.0, [0.0, 0.0]);
+    for (pose, link) in poses.iter().zip(&mechanism.links) {
+        if let Some(inertial) = link.inertial {
+            let [x, y] = pose.apply(inertial.centre_of_mass[0], inertial.centre_of_mass[1]);
+            mass += inertial.mass;
+            moment = [moment[0] + inertial.mass * x, moment[1] + inertial.mass * y];
+        }
+    }
+    let contacts: Vec<[f64; 2]> = mechanism
+        .wheels
+        .iter()
+        .map(|w| poses[w.link].apply(w.origin.x, w.origin.y))
+        .collect();
+    static_normal_loads(
+        mass,
+        [moment[0] / mass, moment[1] / mass],
+        &contacts,
+        floor_gravity,
+    )
+    .map_err(|e| bad(e.to_string()))
+}
+
+/// The wheels at rest, with an actuator (torque, up to the URDF's effort limit) per driven wheel.
+fn wheel_states(
+    mechanism: &Mechanism,
+    loads: Vec<f64>,
+    params: &ProcessParams,
+) -> (Vec<Actuator>, Vec<WheelState>) {
+    let mut actuators = Vec::new();
+    let mut wheels = Vec::new();
+    for (wheel, normal_load) in mechanism.wheels.iter().zip(loads) {
+        let actuator = wheel.effort_limit.map(|limit| {
+            actuators.push(Actuator {
+                joint: wheel.name.clone(),
+                kind: EffortKind::Torque,
+                effort_limit: limit,
+            });
+            actuators.len() - 1
+        });
+        let reflected = if actuator.is_some() {
+            params.motor.reflected_inertia()
+        } else {
+            0.0
+        };
+        let [hx, hy] = wheel.heading();
+        wheels.push(WheelState {
+            name: wheel.name.clone(),
+            link: wheel.link,
+            origin: wheel.origin,
+            heading: wheel.origin.rotate(hx, hy),
+            radius: wheel.radius,
+            friction: params.friction.unwrap_or(wheel.friction),
+            inertia: wheel.spin_inertia + reflected,
+            normal_load,
+            actuator,
+            motor: Motor::default(),
+            drive_torque: 0.0,
+            spin: 0.0,
+            angle: 0.0,
+            slip: [0.0; 2],
+        });
+    }
+    (actuators, wheels)
 }
 
 /// The driven wheels are the platform's own actuators: their torque spins the wheel model (the

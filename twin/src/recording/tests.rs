@@ -1,3 +1,5 @@
+//! The recorder: valid .rrd files, refusals naming the path, its cost, salvage, live viewers.
+
 use super::columns::pose_columns;
 use super::*;
 use crate::mechanism::{wrap_angle, Outline, Pose2, Shape};

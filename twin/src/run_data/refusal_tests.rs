@@ -94,35 +94,51 @@ fn unreadable_files_and_bad_renames_are_refused() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
+/// A header of the time and the small plant's signals, for the files that go wrong below it.
+const HEAD: &str = "time [s],ram_position [m],crank.position [rad]\n";
+
 /// Each malformed file (name, text) with the words its refusal must hold.
 fn refusal_cases() -> Vec<(&'static str, String, &'static str)> {
-    let head = "time [s],ram_position [m],crank.position [rad]\n";
+    let mut cases = row_refusal_cases();
+    cases.extend(column_refusal_cases());
+    cases.extend(whole_file_refusal_cases());
+    cases
+}
+
+/// Malformed rows: an empty or non-numeric cell, time not increasing, a cell missing.
+fn row_refusal_cases() -> Vec<(&'static str, String, &'static str)> {
     vec![
         (
             "empty.csv",
-            format!("{head}0,1,2\n0.001,,2\n"),
+            format!("{HEAD}0,1,2\n0.001,,2\n"),
             "row 3, column \"ram_position [m]\": empty cell",
         ),
         (
             "nan.csv",
-            format!("{head}0,1,2\n0.001,1,NaN\n"),
+            format!("{HEAD}0,1,2\n0.001,1,NaN\n"),
             "row 3, column \"crank.position [rad]\": NaN is not a finite number",
         ),
         (
             "word.csv",
-            format!("{head}0,1,abc\n"),
+            format!("{HEAD}0,1,abc\n"),
             "row 2, column \"crank.position [rad]\": `abc` is not a number",
         ),
         (
             "time.csv",
-            format!("{head}0,1,2\n0.002,1,2\n0.001,1,2\n"),
+            format!("{HEAD}0,1,2\n0.002,1,2\n0.001,1,2\n"),
             "row 4: time 0.001 s is not after the row before's 0.002 s",
         ),
         (
             "cells.csv",
-            format!("{head}0,1,2\n0.001,1\n"),
+            format!("{HEAD}0,1,2\n0.001,1\n"),
             "row 3: 2 cells where the header has 3",
         ),
+    ]
+}
+
+/// Malformed columns: no time, a signal twice, a unit missing or not fitting its signal.
+fn column_refusal_cases() -> Vec<(&'static str, String, &'static str)> {
+    vec![
         (
             "notime.csv",
             "t [s],ram_position [m]\n0,1\n0.001,2\n".to_owned(),
@@ -150,19 +166,25 @@ fn refusal_cases() -> Vec<(&'static str, String, &'static str)> {
             "time [mm],ram_position [m]\n0,1\n".to_owned(),
             "column \"time [mm]\": unit mm does not fit time, which is in s (give s or ms)",
         ),
+    ]
+}
+
+/// Files refused as a whole: too little data, not a data file, not CSV, Parquet or a recording.
+fn whole_file_refusal_cases() -> Vec<(&'static str, String, &'static str)> {
+    vec![
         (
             "short.csv",
-            format!("{head}0,1,2\n0.0005,1,2\n"),
+            format!("{HEAD}0,1,2\n0.0005,1,2\n"),
             "1 samples at the control period 0.001 s (0.0005 s of data); 2 are needed",
         ),
         (
             "one.csv",
-            format!("{head}0,1,2\n"),
+            format!("{HEAD}0,1,2\n"),
             "1 rows of data; at least two are needed",
         ),
         (
             "run.txt",
-            format!("{head}0,1,2\n"),
+            format!("{HEAD}0,1,2\n"),
             "not a data file by its extension (`.txt`)",
         ),
         (
@@ -177,12 +199,12 @@ fn refusal_cases() -> Vec<(&'static str, String, &'static str)> {
         ),
         (
             "garbage.parquet",
-            format!("{head}0,1,2\n"),
+            format!("{HEAD}0,1,2\n"),
             "not a Parquet file of numbers",
         ),
         (
             "garbage.rrd",
-            format!("{head}0,1,2\n"),
+            format!("{HEAD}0,1,2\n"),
             "not a twin run's recording",
         ),
     ]

@@ -106,7 +106,14 @@ fn plots(shadow: &Shadow) -> Vec<PlotSpec> {
         unit: Unit::Dimensionless,
         series: tests,
     });
-    let base = 5 * w + 1 + p;
+    plots.extend(parameter_plots(shadow, 5 * w + 1 + p));
+    plots
+}
+
+/// One plot per parameter: its estimate and 95 % bounds, from value `base` on (three per
+/// parameter).
+fn parameter_plots(shadow: &Shadow, base: usize) -> Vec<PlotSpec> {
+    let mut plots = Vec::new();
     for (j, key) in shadow.parameters().iter().enumerate() {
         plots.push(PlotSpec {
             tab: PlotTab::Watch,

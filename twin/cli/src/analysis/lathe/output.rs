@@ -319,8 +319,18 @@ fn mm_per_kw(gain: f64) -> f64 {
     gain * 1e6
 }
 
+/// The text summary: the loop and its design, the equilibria, the region of attraction.
 fn summary(plane: &PhasePlane) -> String {
     let mut out = String::new();
+    loop_summary(&mut out, plane);
+    equilibria_summary(&mut out, plane);
+    region_summary(&mut out, plane);
+    out
+}
+
+/// The power loop's parameters and gains H, how H was designed, and the global-stability
+/// condition (eq 23).
+fn loop_summary(out: &mut String, plane: &PhasePlane) {
     let params = plane.lathe.params();
     let [h1, h2] = plane.power_gains;
     let _ = writeln!(
@@ -355,6 +365,10 @@ fn summary(plane: &PhasePlane) -> String {
         mm_per_kw(check.lower_bounds[1]),
         if check.satisfied { "met" } else { "NOT met" }
     );
+}
+
+/// Each equilibrium: kind, forces, power, feed regimes and eigenvalues.
+fn equilibria_summary(out: &mut String, plane: &PhasePlane) {
     let _ = writeln!(out, "equilibria:");
     for e in &plane.equilibria {
         let [l1, l2] = e.eigenvalues;
@@ -374,6 +388,10 @@ fn summary(plane: &PhasePlane) -> String {
             l2.im
         );
     }
+}
+
+/// The failing starts of the grid, the boundary of R_a and the saturation lines.
+fn region_summary(out: &mut String, plane: &PhasePlane) {
     let region = plane.region();
     let _ = write!(
         out,
@@ -411,5 +429,4 @@ fn summary(plane: &PhasePlane) -> String {
             }
         );
     }
-    out
 }
