@@ -43,13 +43,10 @@ const BAND: f64 = 4.0;
 const REACQUIRE_LIMIT: f64 = 10.0;
 /// CUSUM reference value, in standard deviations of a block mean.
 const REFERENCE: f64 = 0.5;
-/// The least learnt spread of a normalised innovation the tests standardise by: a quarter of
-/// the unit spread of a model that fits. A signal that hardly moved while learning (a held axis
-/// read through a quantised encoder: the same count, an innovation that barely changes) learns
-/// a spread near zero, and the tests would then alarm on the filter's own settling.
-const LEAST_SPREAD: f64 = 0.25;
-/// The least learnt spread of the NIS per degree of freedom, for the same reason: a tenth of
-/// the smallest a χ² per degree of freedom has (√(2/m) for m ≤ 200 signals).
+/// The least learnt spread of the NIS per degree of freedom the NIS test standardises by: a
+/// tenth of the smallest a χ² per degree of freedom has (√(2/m) for m ≤ 200 signals). A signal
+/// that hardly moved while learning (a held axis read through a quantised encoder) learns a
+/// spread near zero, and the test would then alarm on the filter's own settling.
 const LEAST_NIS_SPREAD: f64 = 0.01;
 /// Quarter windows: the NIS window's spread is also learnt from the NIS summed over these.
 const BATCHES_PER_WINDOW: f64 = 4.0;
@@ -235,7 +232,7 @@ impl Detector {
             let test = &self.signals[s];
             let (mean, spread) = match self.learning {
                 true => (0.0, 1.0),
-                false => (test.mean, test.learnt.spread().max(LEAST_SPREAD)),
+                false => (test.mean, test.learnt.spread().max(1e-12)),
             };
             (value - mean).abs() <= BAND * spread
         });
@@ -315,7 +312,7 @@ impl Detector {
             let inflation = (1.0 + rho) / (1.0 - rho);
             test.block = (inflation.ceil() as usize).clamp(1, 50);
             test.mean = test.learnt.mean();
-            let spread = test.learnt.spread().max(LEAST_SPREAD);
+            let spread = test.learnt.spread().max(1e-12);
             test.scale = spread * (inflation / test.block as f64).sqrt();
             test.high_zero = time;
             test.low_zero = time;
