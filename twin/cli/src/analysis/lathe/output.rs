@@ -329,7 +329,7 @@ fn summary(plane: &PhasePlane) -> String {
 }
 
 /// The power loop's parameters and gains H, how H was designed, and the global-stability
-/// condition (eq 23).
+/// condition (Sudhakara eq (23)).
 fn loop_summary(out: &mut String, plane: &PhasePlane) {
     let params = plane.lathe.params();
     let [h1, h2] = plane.power_gains;
