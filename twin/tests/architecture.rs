@@ -256,17 +256,17 @@ fn the_circle_finder_finds_a_circle() {
     assert!(!found.iter().any(|p| p[0] == "scenario"), "{found:?}");
 }
 
-#[test]
-fn the_library_leaves_the_command_line_crates_to_the_applications() {
+/// The `[dependencies]` table of the library's manifest, as written (dev-dependencies apart).
+fn library_dependencies() -> String {
     let manifest =
         std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("Cargo.toml")).unwrap();
-    let dependencies = manifest
-        .split("[dependencies]")
-        .nth(1)
-        .unwrap()
-        .split("\n[")
-        .next()
-        .unwrap();
+    let table = manifest.split("[dependencies]").nth(1).unwrap();
+    table.split("\n[").next().unwrap().to_string()
+}
+
+#[test]
+fn the_library_leaves_the_command_line_crates_to_the_applications() {
+    let dependencies = library_dependencies();
     for crate_name in ["clap", "indicatif", "signal-hook", "rayon"] {
         assert!(
             !dependencies.contains(&format!("\n{crate_name}")),
@@ -282,14 +282,7 @@ fn the_library_leaves_the_command_line_crates_to_the_applications() {
 #[test]
 fn the_engine_imports_nothing_from_the_controller_collection() {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let manifest = std::fs::read_to_string(root.join("Cargo.toml")).unwrap();
-    let dependencies = manifest
-        .split("[dependencies]")
-        .nth(1)
-        .unwrap()
-        .split("\n[")
-        .next()
-        .unwrap();
+    let dependencies = library_dependencies();
     assert!(
         !dependencies.contains("\ncontrollers"),
         "twin's [dependencies] list the controller collection"

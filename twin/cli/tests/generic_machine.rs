@@ -387,8 +387,7 @@ fn what_the_generic_machine_cannot_take_is_refused_by_name() {
 
 #[test]
 fn the_five_bar_falls_free_as_mujoco_lets_it_fall() {
-    let dir = scratch("generic-machine", "five-bar");
-    let urdf = urdf_of("five-bar", "five_bar.urdf");
+    let joints = ["left", "left_elbow", "right", "right_elbow"];
     let args = [
         "--initial",
         "left=0.3,0.5",
@@ -400,40 +399,8 @@ fn the_five_bar_falls_free_as_mujoco_lets_it_fall() {
         "right=0",
         "--duration",
         "2",
-        "--dt",
-        "1e-5",
-        "--control-period",
-        "1e-3",
-        "--out",
-        "mujoco.csv",
     ];
-    mujoco_on(&dir, &urdf, &args);
-    let theirs = columns(&dir.join("mujoco.csv"));
-    // Every joint's start as MuJoCo closed the loop (the cranks alone would let the twin
-    // assemble it on another branch).
-    let joints = ["left", "left_elbow", "right", "right_elbow"];
-    let mut sets: Vec<String> = ["dt=1e-4", "control_period=1e-3"].map(String::from).into();
-    for joint in joints {
-        for state in ["position", "velocity"] {
-            let start = theirs[&format!("{joint}.{state}")][0];
-            sets.push(format!("initial.{joint}.{state}={start:?}"));
-        }
-    }
-    let scenario = scenario_of("five-bar");
-    let mut run = vec![
-        "run",
-        &scenario,
-        "--controller",
-        "passive",
-        "--duration",
-        "2",
-    ];
-    for set in &sets {
-        run.extend(["--set", set]);
-    }
-    run.extend(["--csv", "twin.csv", "--out", "twin.rrd"]);
-    ok(&twin(&run, &dir));
-    let ours = columns(&dir.join("twin.csv"));
+    let (theirs, ours) = loop_runs("five-bar", "five_bar.urdf", &joints, &args, &[]);
     for joint in joints {
         let column = format!("{joint}.position");
         let (a, b) = (&theirs[&column], &ours[&format!("true.{column}")]);
