@@ -4,16 +4,19 @@
 //! One door in: a [`Scenario`] is put together ([`ScenarioBuilder`]), built with the controller
 //! registry into a [`LoadedScenario`] (its controller's parameters checked there), bound into a
 //! [`Twin`] and run ([`Twin::run`], [`Twin::run_with`] and [`Observer`]s), giving a
-//! [`RunSummary`]. The modules are private; this file is the surface. Only the `physics` module
-//! knows Rapier; only `recording` knows Rerun. The applications built on the library (the `twin`
-//! command line, studies, reproductions, analyses) live in the `twin-cli` crate.
+//! [`RunSummary`]. This file is the surface: the engine's modules are private, but for
+//! [`data`], [`calibration`] and [`shadowing`], public under their folders' names, whose own
+//! `mod.rs` says what they show. Only the `physics` module knows Rapier; only `recording` knows
+//! Rerun. The applications built on the library (the `twin` command line, studies,
+//! reproductions, analyses) live in the `twin-cli` crate.
 
 #![warn(missing_docs)]
 
+pub mod calibration;
+pub mod data;
 mod energy;
 mod faults;
 mod files;
-mod fitting;
 mod linear;
 mod machines;
 mod mechanism;
@@ -22,11 +25,10 @@ mod physics;
 mod plant;
 mod recording;
 mod run;
-mod run_data;
 mod scenario;
 mod scene;
 mod sensors;
-mod shadow;
+pub mod shadowing;
 mod spectrum;
 mod urdf;
 
@@ -52,42 +54,6 @@ pub use sensors::Noise;
 /// Signal processing the twin's own spectra use, for applications that analyse signals alike.
 pub mod signal {
     pub use crate::spectrum::{fft, Spectrum};
-}
-
-/// Measured runs in and out: a run's table of commands, measured and true signals as CSV,
-/// Parquet or a twin `.rrd` ([`RunData`](data::RunData)), bound to a plant's
-/// [`PlantColumns`](data::PlantColumns) and resampled onto its control period
-/// ([`Trace`](data::Trace)), and written from a run by the [`RunTable`](data::RunTable)
-/// observer.
-pub mod data {
-    pub use crate::run_data::{
-        left_out_note, parse_renames, ColumnRole, DataColumn, DataError, DataRate, Delimiter,
-        PlantColumns, ReadOptions, RunData, RunTable, Trace, UnreadColumn, MAX_DATA_BYTES,
-    };
-}
-
-/// The twin against its machine's measured runs: [`compare`](calibration::compare) replays a
-/// run and says per signal how far apart they are; [`calibrate`](calibration::calibrate) fits
-/// scenario values to runs, checked first, with standard errors, 95 % intervals and the
-/// calibrated scenario.
-pub mod calibration {
-    pub use crate::fitting::{
-        calibrate, compare, Calibration, CalibrationError, CalibrationOptions, Comparison,
-        Estimate, FitParameter, Iteration, Overlay, RunFit, SegmentFit, SignalFit, SignalVerdict,
-        StartStates, Verdict, Whiteness, DEFAULT_SEGMENT, VARIANCE_FITS,
-    };
-}
-
-/// The twin beside a running machine: a [`Shadow`](shadowing::Shadow) fed the machine's
-/// commands and measurements as they arrive estimates its state and tracked parameters with an
-/// extended Kalman filter on the twin's own model, tests the innovations and raises
-/// [`Anomaly`](shadowing::Anomaly) events, named after the parameter that explains them.
-pub mod shadowing {
-    pub use crate::shadow::{
-        describe, Anomaly, AnomalyChange, Attribution, DetectorView, Innovation, IntakeCounts,
-        Shadow, ShadowError, ShadowOptions, ShadowRecording, ShadowStep, TrackedParameter,
-        DEFAULT_PROCESS_NOISE, MAX_GAP,
-    };
 }
 
 /// A run's summary as a table for people and JSON for scripts.

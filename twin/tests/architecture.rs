@@ -229,6 +229,49 @@ fn no_module_uses_what_its_crate_root_defines() {
     }
 }
 
+/// The engine's folders whose `mod.rs` still defines what its files use (to be split as
+/// `run/`, `machines/`, `data/`, `calibration/` and `shadowing/` were).
+const MOD_RS_THAT_STILL_DEFINE: [&str; 4] = ["linear", "physics", "recording", "scenario"];
+
+/// A folder's `mod.rs` only declares its files and re-exports: what the library shows
+/// (`twin::data`, `twin::calibration`, `twin::shadowing`) is named like its folder, and no file
+/// reaches back into its parent for what the parent defines.
+#[test]
+fn the_engines_mod_rs_files_only_declare_and_re_export() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
+    let mut checked = 0;
+    for file in sources(&root) {
+        let folder = file.parent().and_then(|f| f.strip_prefix(&root).ok());
+        let Some(folder) = folder.map(|f| f.to_string_lossy().into_owned()) else {
+            continue;
+        };
+        if file.file_name().is_none_or(|n| n != "mod.rs")
+            || MOD_RS_THAT_STILL_DEFINE.contains(&folder.as_str())
+        {
+            continue;
+        }
+        let text = std::fs::read_to_string(&file).unwrap();
+        let code = text.lines().take_while(|l| !l.contains("#[cfg(test)]"));
+        let mut names = defined_at_root(&code.clone().collect::<Vec<_>>().join("\n"));
+        names.extend(code.filter(|l| l.starts_with("impl")).map(str::to_owned));
+        assert!(
+            names.is_empty(),
+            "twin/src/{folder}/mod.rs defines {}: move it into a file of the folder and re-export it",
+            names.join(", ")
+        );
+        checked += 1;
+    }
+    // The check reads something: run/, machines/, data/, calibration/ and shadowing/ at least.
+    assert!(checked >= 5, "{checked} mod.rs files");
+    for folder in ["data", "calibration", "shadowing"] {
+        let lib = std::fs::read_to_string(root.join("lib.rs")).unwrap();
+        assert!(
+            lib.contains(&format!("\npub mod {folder};")),
+            "twin::{folder} is not its folder src/{folder}/"
+        );
+    }
+}
+
 #[test]
 fn the_circle_finder_finds_a_circle() {
     let mut edges = BTreeMap::new();

@@ -1,13 +1,14 @@
-//! The twin beside a running machine: fed the machine's commands and measurements as they
-//! arrive (late, irregular, out of order, duplicated), it keeps an estimate of the machine's
-//! state and of the parameters it tracks with an extended Kalman filter on its own model
-//! ([`filter`]), tests the normalised innovations for anomalies ([`detector`]) and names the
-//! parameter that explains one.
+//! The twin beside a running machine: a [`Shadow`] fed the machine's commands and measurements
+//! as they arrive (late, irregular, out of order, duplicated) estimates its state and the
+//! parameters it tracks with an extended Kalman filter on the twin's own model (`filter`), tests
+//! the normalised innovations (`detector`) and raises [`Anomaly`] events, named after the
+//! parameter that explains them.
 //!
 //! Samples carry their source timestamps. They wait in an intake for `latency` seconds behind
 //! the newest one, so that those arriving out of order within it are processed in time order;
 //! one older than what has been processed is counted late and dropped, and a repeated one
-//! (same signal, same time) is counted and dropped.
+//! (same signal, same time) is counted and dropped. This file only declares the modules and
+//! re-exports what the library shows.
 
 mod detector;
 mod error;

@@ -6,7 +6,7 @@
 use super::replay::{Replayer, Segment};
 use super::start::{Assembly, Placement, Probe};
 use super::{CalibrationError, DEFAULT_SEGMENT};
-use crate::run_data::Trace;
+use crate::data::Trace;
 
 /// Fewest samples a segment may have: a start state and its first moves.
 pub const MIN_SEGMENT_SAMPLES: usize = 10;

@@ -114,7 +114,7 @@ impl RunData {
         let readable = (self.columns.iter()).map(|c| (&c.name, &c.unit, None));
         let unread = (self.unread.iter()).map(|c| (&c.name, &c.unit, Some(c)));
         for (name, unit, unread) in readable.chain(unread) {
-            let header = super::header(name, unit);
+            let header = super::measured::header(name, unit);
             match (plant.role_of(name), unread) {
                 (Some(_), None) => {}
                 (Some(_), Some(c)) => {

@@ -10,10 +10,10 @@
 
 use super::local_fit::{fit_adaptive, through, LocalValue};
 use super::replay::PlantShape;
+use crate::data::Trace;
 use crate::mechanism::JointMotion;
 use crate::physics::{MechanismState, ReducedDynamics, ReducedError};
 use crate::run::ModelParts;
-use crate::run_data::Trace;
 use crate::sensors::SensorSpec;
 use nalgebra::{DMatrix, DVector};
 use std::collections::BTreeMap;

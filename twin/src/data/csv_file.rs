@@ -6,7 +6,8 @@
 //! writes it: comma separated, `name [unit]` headers, values in Rust's shortest round-trip form
 //! of an `f64`.
 
-use super::{DataError, Delimiter, RawTable, RunData};
+use super::reading::RawTable;
+use super::{DataError, Delimiter, RunData};
 
 /// How the file's lines are cut into cells: the separator, and whether it was given
 /// (`--delimiter`) or read from the header.
@@ -151,7 +152,7 @@ impl Cutting<'_> {
             } else if !given.is_empty() && given != unit {
                 return Err(DataError::Column {
                     file: self.file.to_owned(),
-                    column: super::header(name, unit),
+                    column: super::measured::header(name, unit),
                     reason: format!(
                         "its unit is {unit} in the header but {given} in the units row \
                          (row {row}); give one"

@@ -6,9 +6,9 @@ use super::detector::{self, Detector};
 use super::filter::Filter;
 use super::intake::{Intake, Sample, SampleKind};
 use super::{AnomalyChange, DetectorView, Innovation, ShadowError, ShadowOptions};
+use crate::data::PlantColumns;
 use crate::mechanism::{Pose2, Shape};
 use crate::run::Twin;
-use crate::run_data::PlantColumns;
 use crate::scenario::LoadedScenario;
 use crate::scene::Scene;
 

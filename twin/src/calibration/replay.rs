@@ -3,8 +3,8 @@
 //! its own controller following the logged reference), sampled at the control period.
 
 use super::CalibrationError;
+use crate::data::{PlantColumns, Trace};
 use crate::run::Simulator;
-use crate::run_data::{PlantColumns, Trace};
 use crate::scenario::ScenarioBuilder;
 use framework::Registry;
 use std::ops::Range;

@@ -5,6 +5,7 @@
 use super::tests::{loaded, scratch, small_plant, write};
 use super::*;
 use crate::run::Twin;
+use std::path::Path;
 use std::sync::Arc;
 
 /// The message of reading `text` as `name` as `options` ask and binding it to the small plant

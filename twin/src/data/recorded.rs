@@ -9,7 +9,8 @@
 
 use std::path::Path;
 
-use super::{ColumnRole, DataError, PlantColumns, RawTable};
+use super::reading::RawTable;
+use super::{ColumnRole, DataError, PlantColumns};
 use crate::recording::{read_signals, RecordingError};
 
 /// The run's columns in the recording `path` (named `file` in errors), from its `bytes`:

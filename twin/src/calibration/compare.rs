@@ -8,7 +8,7 @@ use super::metrics::{signal_fit, SignalFit};
 use super::problem::{self, Problem, Scope};
 use super::solve::solve;
 use super::{CalibrationError, CalibrationOptions};
-use crate::run_data::{DataRate, RunData};
+use crate::data::{DataRate, RunData};
 use crate::scenario::ScenarioBuilder;
 use framework::Registry;
 use serde::Serialize;

@@ -1,10 +1,11 @@
 //! The data format's round trips (CSV, Parquet, a recording), a run's rows written when it is
 //! interrupted, and the unit conversions and resampling checked against hand values.
 
+use super::measured::sha256_hex;
 use super::*;
-use crate::run::{StopFlag, Twin};
+use crate::run::{Simulator, StopFlag, Twin};
 use crate::scenario::Scenario;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 pub(super) fn scratch(name: &str) -> PathBuf {

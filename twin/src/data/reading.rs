@@ -3,9 +3,14 @@
 //! its values finite and strictly increasing; another column with a value that is not a finite
 //! number kept apart, unread).
 
+use super::measured::header;
 use super::units;
-use super::{header, DataColumn, DataError, RunData, UnreadColumn, MAX_DATA_BYTES};
+use super::{DataColumn, DataError, RunData, UnreadColumn};
 use std::path::Path;
+
+/// Largest data file read, bytes (1 GiB): far above an hour of a machine's signals at 1 kHz in
+/// Parquet, and it keeps a mistaken device or huge path from eating the memory.
+pub const MAX_DATA_BYTES: u64 = 1 << 30;
 
 /// The kinds of data file, by extension.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -1,67 +1,7 @@
-//! Calibration, the twin against its machine's data: how far a scenario is from a measured run
-//! ([`compare`]), and its parameters fitted to runs by weighted output-error least squares
-//! ([`calibrate`]).
-//!
-//! `replay` simulates a stretch of a run (open loop on the logged commands, or closed loop on the
-//! logged reference); `problem` lays the unknowns and residuals out and differentiates them;
-//! `check` refuses what the data cannot determine before any solve; `solve` is the bounded
-//! Levenberg–Marquardt; `report` the estimates, intervals and the calibrated scenario;
-//! `metrics` fit %, whiteness and noise.
+//! What a calibration fits and how it runs: the parameters, the start states fitted per segment,
+//! the segments' length, the starts and iterations of the solve.
 
-mod check;
-mod compare;
-mod local_fit;
-mod metrics;
-mod problem;
-mod replay;
-mod report;
-mod segments;
-mod solve;
-mod start;
-mod verdict;
-
-pub use compare::{compare, Comparison, Overlay, SegmentFit};
-pub use metrics::{SignalFit, Whiteness};
-pub use report::{calibrate, Calibration, Estimate, RunFit};
-pub use solve::Iteration;
-pub use verdict::{SignalVerdict, Verdict, VARIANCE_FITS};
-
-use crate::run::TwinError;
-use crate::run_data::DataError;
-use crate::scenario::{CalibrationSpec, ScenarioError};
-use thiserror::Error;
-
-/// Why a comparison or a calibration was refused or failed; one line, naming the file, key or
-/// parameter and what to change.
-#[derive(Debug, Error)]
-pub enum CalibrationError {
-    /// The scenario, or a value tried in it, is refused.
-    #[error(transparent)]
-    Scenario(#[from] ScenarioError),
-    /// The twin cannot be built from the scenario.
-    #[error(transparent)]
-    Twin(#[from] TwinError),
-    /// A data file cannot be read or does not fit the scenario.
-    #[error(transparent)]
-    Data(#[from] DataError),
-    /// The twin diverged while replaying a run.
-    #[error("{run}: the twin diverged replaying the run at t = {time} s: {reason}")]
-    Diverged {
-        /// The run's data file.
-        run: String,
-        /// The data's time where it diverged, s.
-        time: f64,
-        /// What diverged.
-        reason: String,
-    },
-    /// The check before the solve refused the problem (a parameter without effect, parameters
-    /// the data cannot separate, bounds that exclude the start, too little data).
-    #[error("calibration check: {0}")]
-    Check(String),
-    /// The options contradict each other or name what the scenario lacks.
-    #[error("{0}")]
-    Options(String),
-}
+use crate::scenario::CalibrationSpec;
 
 /// A scenario value to fit: any numeric key (`urdf.link.ram.mass`, `urdf.joint.crank.damping`,
 /// `sensors."crank.position".bias`, `process.…`, `controller.params.…`).
@@ -165,43 +105,4 @@ impl Default for CalibrationOptions {
             threads: 0,
         }
     }
-}
-
-/// Runs `job(i)` for `i` in `0..jobs` on up to `threads` threads; the results in job order, so
-/// that the outcome never depends on the threads' timing.
-fn parallel<T: Send>(jobs: usize, threads: usize, job: impl Fn(usize) -> T + Sync) -> Vec<T> {
-    use std::sync::atomic::{AtomicUsize, Ordering};
-    use std::sync::Mutex;
-    let threads = threads.clamp(1, jobs.max(1));
-    if threads == 1 {
-        return (0..jobs).map(job).collect();
-    }
-    let next = AtomicUsize::new(0);
-    let slots: Mutex<Vec<Option<T>>> = Mutex::new((0..jobs).map(|_| None).collect());
-    std::thread::scope(|scope| {
-        for _ in 0..threads {
-            scope.spawn(|| loop {
-                let i = next.fetch_add(1, Ordering::Relaxed);
-                if i >= jobs {
-                    break;
-                }
-                let result = job(i);
-                if let Ok(mut slots) = slots.lock() {
-                    slots[i] = Some(result);
-                }
-            });
-        }
-    });
-    let slots = slots
-        .into_inner()
-        .unwrap_or_else(|poisoned| poisoned.into_inner());
-    slots.into_iter().flatten().collect()
-}
-
-/// The machine's cores, or `threads` when given.
-fn thread_count(threads: usize) -> usize {
-    if threads > 0 {
-        return threads;
-    }
-    std::thread::available_parallelism().map_or(1, |n| n.get())
 }

@@ -4,8 +4,9 @@
 use std::path::PathBuf;
 
 use super::csv_file;
+use super::measured::sha256_hex;
 use super::parquet_file;
-use super::{sha256_hex, ColumnRole, DataColumn, DataError, PlantColumns, RunData};
+use super::{ColumnRole, DataColumn, DataError, PlantColumns, RunData};
 use crate::output::OutputFile;
 use crate::run::{Findings, Observer, ObserverError, SignalLayout, StepView};
 
