@@ -33,7 +33,7 @@ mod spectrum;
 mod urdf;
 
 pub use linear::{Channel, LinearModel, ModelError, OperatingPoint};
-pub use machines::{ActuatorKind, ActuatorSpec, PointSpec, SpringSpec};
+pub use machines::{ActuatorKind, ActuatorSpec, PointAt, PointSpec, SpringSpec};
 pub use output::{same_file, OutputError, OutputFile};
 pub use physics::{
     AllowedContact, BodyKind, BodyShape, BodySpec, Collision, ContactOptions, Engine, SolverOptions,
@@ -45,7 +45,7 @@ pub use run::{
     TwinError,
 };
 pub use scenario::{
-    load as load_scenario, CalibrationSpec, FitSpec, LoadedScenario, MetricKind, MetricSpec,
+    load as load_scenario, CalibrationSpec, FitSpec, Gravity, LoadedScenario, MetricKind, MetricSpec,
     Overrides, Scenario, ScenarioBuilder, ScenarioError, ScenarioValue,
     BUILTIN as BUILTIN_SCENARIOS,
 };

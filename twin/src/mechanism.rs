@@ -1,5 +1,10 @@
 //! A planar mechanism as the twin understands it, independent of the physics engine and of the
-//! recording: links with mass and shapes, a joint tree and the joints that close its loops.
+//! recording: links with mass and shapes, a joint tree and the joints that close its loops, and
+//! the [`Plane`] its URDF was laid onto.
+
+mod plane;
+
+pub use plane::Plane;
 
 /// A rigid transform in the plane: rotation by `angle` (rad, counter-clockwise) then translation.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -247,6 +252,9 @@ pub struct Joint {
     pub friction: f64,
     /// A spring between parent and child (the `<spring>` extension), when the joint has one.
     pub spring: Option<JointSpring>,
+    /// A transmission's mechanical reduction: the joint's effort is this times its actuator's
+    /// (1 without a `<transmission>`).
+    pub reduction: f64,
 }
 
 /// A linear joint spring: effort −stiffness·(coordinate − reference), in the joint's URDF sense.
@@ -320,6 +328,12 @@ pub struct Mechanism {
     pub loops: Vec<LoopJoint>,
     /// Rolling wheels: spin states integrated by the machine, not tree bodies.
     pub wheels: Vec<Wheel>,
+    /// The turn from the URDF's frame to the plane the mechanism is described in (the identity
+    /// for a URDF about z).
+    pub plane: Plane,
+    /// What the URDF holds that the twin leaves out (a `<frame>`, a transmission's interface),
+    /// one line each, for the user.
+    pub notes: Vec<String>,
 }
 
 impl Mechanism {

@@ -44,10 +44,11 @@
 //! cylinders and spheres, and meshes (STL, OBJ) as the convex hull of their vertices.
 
 mod geometry;
+mod published;
 
 use crate::mechanism::{
-    Inertial, Joint, JointMotion, JointSpring, Link, LoopJoint, Mechanism, Outline, Pose2, Shape,
-    Wheel,
+    Inertial, Joint, JointMotion, JointSpring, Link, LoopJoint, Mechanism, Outline, Plane, Pose2,
+    Shape, Wheel,
 };
 use std::collections::HashMap;
 use std::path::Path;
@@ -118,14 +119,31 @@ pub fn load_str(text: &str, source: &str) -> Result<Mechanism, UrdfError> {
             "the root element is <{root}>; a URDF's is <robot>"
         )));
     }
-    let robot = urdf_rs::read_from_string(text).map_err(|e| malformed(e.to_string()))?;
+    let mut robot = urdf_rs::read_from_string(text).map_err(|e| malformed(e.to_string()))?;
     let path = Path::new(source);
     let folder = path.is_file().then(|| path.parent()).flatten();
-    Loader {
+    let invalid = |(element, reason)| UrdfError::Invalid {
+        file: source.to_string(),
+        element,
+        reason,
+    };
+    let mut notes = published::weld_to_world(&mut robot).map_err(invalid)?;
+    let plane = published::plane_of(&robot);
+    if !plane.is_identity() {
+        published::lay(&mut robot, &plane);
+    }
+    notes.extend(published::axial_offsets(&mut robot));
+    notes.extend(published::left_out(&document));
+    let mut mechanism = Loader {
         file: source,
         folder,
+        plane,
     }
-    .build(&robot, &document)
+    .build(&robot, &document)?;
+    notes.extend(published::transmissions(&document, &mut mechanism).map_err(invalid)?);
+    mechanism.plane = plane;
+    mechanism.notes = notes;
+    Ok(mechanism)
 }
 
 /// Fails on elements nested deeper than [`MAX_XML_DEPTH`], in one pass over the text that
@@ -187,6 +205,9 @@ struct Loader<'a> {
     file: &'a str,
     /// Where mesh paths are read from (the working folder when `None`).
     folder: Option<&'a Path>,
+    /// The plane the URDF is laid onto: the frames `urdf-rs` read are laid already, those read
+    /// here (loop joints, wheels) are laid as they are read.
+    plane: Plane,
 }
 
 impl Loader<'_> {
@@ -233,6 +254,8 @@ impl Loader<'_> {
             joints,
             loops: Vec::new(),
             wheels: Vec::new(),
+            plane: Plane::IDENTITY,
+            notes: Vec::new(),
         };
         self.springs(document, &mut mechanism)?;
         mechanism.loops = self.loop_joints(document, &mechanism)?;
@@ -516,6 +539,7 @@ impl Loader<'_> {
             damping,
             friction,
             spring: None,
+            reduction: 1.0,
         })
     }
 
@@ -614,13 +638,19 @@ impl Loader<'_> {
 
     fn z_axis_sign(&self, axis: [f64; 3], element: &str) -> Result<f64, UrdfError> {
         if (axis[2].abs() - 1.0).abs() > PLANAR_TOLERANCE {
-            return Err(self.invalid(
-                format!("{element} <axis>"),
+            let reason = if self.plane.is_identity() {
                 format!(
-                    "not planar: a revolute axis must be ±z, got ({}, {}, {}) (a wheel rolling on the floor is declared with <wheel>)",
+                    "not planar: a revolute axis must be ±z as the others are, got ({}, {}, {}) (a wheel rolling on the floor is declared with <wheel>)",
                     axis[0], axis[1], axis[2]
-                ),
-            ));
+                )
+            } else {
+                let [x, y, z] = self.plane.to_urdf(axis);
+                let [nx, ny, nz] = self.plane.normal();
+                format!(
+                    "not planar: the revolute axes must be parallel (most turn about ({nx}, {ny}, {nz}), normal to the plane), got ({x}, {y}, {z})"
+                )
+            };
+            return Err(self.invalid(format!("{element} <axis>"), reason));
         }
         Ok(axis[2].signum())
     }
@@ -662,7 +692,7 @@ impl Loader<'_> {
                             self.invalid(element.clone(), "a prismatic loop joint needs <axis xyz>")
                         })?;
                     let xyz = self.triple(&axis, "xyz", &format!("{element} <axis>"))?;
-                    let unit = self.unit_axis(xyz, &element)?;
+                    let unit = self.plane.vector(self.unit_axis(xyz, &element)?);
                     if unit[2].abs() > PLANAR_TOLERANCE {
                         return Err(self.invalid(
                             format!("{element} <axis>"),
@@ -726,14 +756,16 @@ impl Loader<'_> {
             if link == 0 {
                 return Err(self.invalid(element, "cannot sit on the fixed root link"));
             }
-            let pose = urdf_rs::Pose {
-                xyz: urdf_rs::Vec3(self.triple(&node, "xyz", &element)?),
-                rpy: urdf_rs::Vec3(self.triple(&node, "rpy", &element)?),
-            };
+            let pose = self.laid_pose(
+                self.triple(&node, "xyz", &element)?,
+                self.triple(&node, "rpy", &element)?,
+            );
             let origin = self.planar_pose(&pose, &element)?;
             let axis = match node.attribute("axis") {
                 None => [0.0, 1.0, 0.0],
-                Some(_) => self.unit_axis(self.triple(&node, "axis", &element)?, &element)?,
+                Some(_) => self
+                    .plane
+                    .vector(self.unit_axis(self.triple(&node, "axis", &element)?, &element)?),
             };
             if axis[2].abs() > PLANAR_TOLERANCE {
                 return Err(self.invalid(
@@ -794,11 +826,21 @@ impl Loader<'_> {
             .ok_or_else(|| self.invalid(at.clone(), format!("unknown link \"{link_name}\"")))?;
         let xyz = self.triple(&end, "xyz", &at)?;
         let rpy = self.triple(&end, "rpy", &at)?;
-        let pose = urdf_rs::Pose {
+        let pose = self.laid_pose(xyz, rpy);
+        Ok((link, self.planar_pose(&pose, &at)?))
+    }
+
+    /// A frame read from the text (not by `urdf-rs`), laid onto the plane.
+    fn laid_pose(&self, xyz: [f64; 3], rpy: [f64; 3]) -> urdf_rs::Pose {
+        let (xyz, rpy) = if self.plane.is_identity() {
+            (xyz, rpy)
+        } else {
+            self.plane.frame(xyz, rpy)
+        };
+        urdf_rs::Pose {
             xyz: urdf_rs::Vec3(xyz),
             rpy: urdf_rs::Vec3(rpy),
-        };
-        Ok((link, self.planar_pose(&pose, &at)?))
+        }
     }
 
     /// The attribute `name` of `node` (element `at`), a number > 0; `default` when absent, if

@@ -1,6 +1,7 @@
 //! `twin run`: one scenario run headless into an .rrd recording, with its summary and, when
 //! asked, its commands and signals as a CSV or Parquet data file.
 
+use crate::flags::{DurationFlag, EngineFlag, OutputFlags, SetFlag};
 use crate::engine_option::engine_override;
 use crate::engine_option::parse_engine;
 use crate::failure::{Failure, EXIT_DIVERGED};
@@ -15,29 +16,22 @@ use twin::{
 
 /// `twin run` arguments.
 #[derive(Debug, Clone, clap::Args)]
+#[command(mut_arg("set", |arg| arg.help("Override a scenario value: a dotted key into the TOML, e.g. controller.params.crank_speed=-3")))]
+#[command(mut_arg("connect", |arg| arg.conflicts_with("spawn")))]
 pub struct RunArgs {
     /// A built-in scenario name or a scenario .toml file.
     pub scenario: String,
     /// Use this controller instead of the scenario's (its parameters start from defaults).
     #[arg(long)]
     pub controller: Option<String>,
-    /// Override a scenario value: a dotted key into the TOML, e.g. controller.params.crank_speed=-3.
-    #[arg(long = "set", value_name = "KEY=VALUE")]
-    pub set: Vec<String>,
-    /// The engine that steps the mechanism: exact (RK4, loops closed to 1e-12 m) or rapier
-    /// (Rapier's pipeline, with contacts); the same as --set solver.engine=…, given before the
-    /// --set values.
-    #[arg(long, value_name = "exact|rapier", value_parser = parse_engine)]
-    pub engine: Option<Engine>,
-    /// Simulated time, s.
-    #[arg(long, allow_hyphen_values = true)]
-    pub duration: Option<f64>,
-    /// Recording to write (default: `<scenario>.rrd` in the current folder).
-    #[arg(long)]
-    pub out: Option<PathBuf>,
-    /// Also write the summary as JSON to this file.
-    #[arg(long)]
-    pub summary: Option<PathBuf>,
+    #[command(flatten)]
+    pub values: SetFlag,
+    #[command(flatten)]
+    pub solver: EngineFlag,
+    #[command(flatten)]
+    pub length: DurationFlag,
+    #[command(flatten)]
+    pub outputs: OutputFlags,
     /// Also write the run as a CSV data file: `time [s]`, each actuator's `effort.<actuator>`,
     /// each plant signal as measured (`<signal>`) and true (`true.<signal>`), SI, one row per
     /// control update (written on a divergence or an interruption too).
@@ -46,10 +40,6 @@ pub struct RunArgs {
     /// Also write the run as a Parquet data file: the CSV's columns, as Float64.
     #[arg(long, value_name = "FILE")]
     pub parquet: Option<PathBuf>,
-    /// Also stream the run to a Rerun viewer listening at this URL
-    /// (e.g. rerun+http://127.0.0.1:9876/proxy).
-    #[arg(long, conflicts_with = "spawn")]
-    pub connect: Option<String>,
     /// Also stream the run to a Rerun viewer started from the `rerun` executable on PATH.
     #[arg(long)]
     pub spawn: bool,
@@ -60,8 +50,8 @@ pub struct RunArgs {
 pub fn run(args: &RunArgs, registry: &Registry) -> Result<ExitCode, Failure> {
     let overrides = Overrides {
         controller: args.controller.clone(),
-        duration: args.duration,
-        set: [engine_override(args.engine), args.set.clone()].concat(),
+        duration: args.length.duration,
+        set: [engine_override(args.solver.engine), args.values.set.clone()].concat(),
     };
     let loaded = Scenario::open(&args.scenario)?
         .overrides(&overrides)?
@@ -77,8 +67,12 @@ pub fn run(args: &RunArgs, registry: &Registry) -> Result<ExitCode, Failure> {
         .as_deref()
         .map(OutputFile::create)
         .transpose()?;
+    let urdf = loaded.urdf_source.clone();
     let mut twin = Twin::new(loaded)?.with_stop_flag(stop_on_signals()?);
-    if let Some(url) = &args.connect {
+    for note in twin.urdf_notes() {
+        eprintln!("note: {urdf}: {note}");
+    }
+    if let Some(url) = &args.outputs.connect {
         twin = twin.with_live_viewer(LiveViewer::Connect(url.clone()));
     } else if args.spawn {
         twin = twin.with_live_viewer(LiveViewer::Spawn);
@@ -123,7 +117,7 @@ pub fn finish(result: &RunSummary, summary_file: Option<OutputFile>) -> Result<E
 fn check_outputs(args: &RunArgs, out: &Path) -> Result<(), Failure> {
     let outputs = [
         ("--out", Some(out)),
-        ("--summary", args.summary.as_deref()),
+        ("--summary", args.outputs.summary.as_deref()),
         ("--csv", args.csv.as_deref()),
         ("--parquet", args.parquet.as_deref()),
     ];

@@ -9,7 +9,7 @@ use super::{link, Machine, MachineError};
 use crate::mechanism::Mechanism;
 use crate::physics::{Load, MechanismState, NO_DAMPING, NO_STIFFNESS};
 use crate::scene::{colors, Bounds, Marker, MarkerSource, Scene};
-use framework::{SignalSpec, Unit};
+use framework::{Actuator, SignalSpec, Unit};
 use serde::Deserialize;
 use std::collections::BTreeMap;
 
@@ -22,15 +22,46 @@ pub const GENERIC: &str = "generic";
 pub struct PointSpec {
     /// The link it is fixed to, as the URDF names it.
     pub link: String,
-    /// Where on the link, in the link's frame, m (default its origin).
+    /// Where on the link, m (default its origin): [x, y] in the link's frame on the plane, or
+    /// [x, y, z] in the URDF's link frame (laid onto the plane with the URDF).
     #[serde(default)]
-    pub at: [f64; 2],
+    pub at: PointAt,
     /// A constant force on the point, world frame, N.
     #[serde(default)]
     pub force: Option<[f64; 2]>,
     /// A spring-damper from the point to a fixed anchor.
     #[serde(default)]
     pub spring: Option<SpringSpec>,
+}
+
+/// Where a point is on its link.
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[serde(untagged)]
+pub enum PointAt {
+    /// [x, y] in the link's frame on the plane, m.
+    InPlane([f64; 2]),
+    /// [x, y, z] in the URDF's link frame, m.
+    InUrdf([f64; 3]),
+}
+
+impl Default for PointAt {
+    fn default() -> Self {
+        PointAt::InPlane([0.0; 2])
+    }
+}
+
+impl PointAt {
+    /// The point on the plane `plane` lays the URDF onto (its offset along the plane's normal
+    /// moves nothing in the plane).
+    fn on(&self, plane: &crate::mechanism::Plane) -> [f64; 2] {
+        match *self {
+            PointAt::InPlane(at) => at,
+            PointAt::InUrdf(at) => {
+                let [x, y, _] = plane.vector(at);
+                [x, y]
+            }
+        }
+    }
 }
 
 /// A spring-damper between a point and a fixed anchor in the world, acting along both axes.
@@ -63,6 +94,11 @@ struct Point {
 
 pub struct Generic {
     points: Vec<Point>,
+    /// Each actuated joint's transmission reduction, in actuator order: the joint's effort is
+    /// this times the command (1 without a `<transmission>`).
+    reductions: Vec<f64>,
+    /// The actuated joints' names, in actuator order.
+    actuated: Vec<String>,
     /// The view: wide enough for every link turned any way about the base.
     bounds: Bounds,
 }
@@ -75,7 +111,8 @@ impl Generic {
                 key: format!("points.{name}"),
                 reason,
             };
-            let numbers = spec.at.iter().chain(spec.force.iter().flatten());
+            let at = spec.at.on(&mechanism.plane);
+            let numbers = at.iter().chain(spec.force.iter().flatten());
             if numbers.clone().any(|v| !v.is_finite()) {
                 return Err(bad("`at` and `force` must be finite numbers".into()));
             }
@@ -85,13 +122,21 @@ impl Generic {
             resolved.push(Point {
                 name: name.clone(),
                 link: link(GENERIC, mechanism, &spec.link)?,
-                at: spec.at,
+                at,
                 force: spec.force.unwrap_or([0.0; 2]),
                 spring: spec.spring,
             });
         }
+        let reductions = (mechanism.actuated_joints().into_iter())
+            .map(|j| mechanism.joints[j].reduction)
+            .collect();
+        let actuated = (mechanism.actuated_joints().into_iter())
+            .map(|j| mechanism.joints[j].name.clone())
+            .collect();
         Ok(Self {
             points: resolved,
+            reductions,
+            actuated,
             bounds: reach(mechanism),
         })
     }
@@ -154,6 +199,22 @@ impl Machine for Generic {
             ]);
         }
         specs
+    }
+
+    /// The actuator's own limit: the joint's, less its transmission's reduction.
+    fn command_limit(&self, actuator: &Actuator) -> f64 {
+        let reduction = (self.reductions.iter())
+            .zip(&self.actuated)
+            .find(|(_, name)| **name == actuator.joint)
+            .map_or(1.0, |(r, _)| r.abs());
+        actuator.effort_limit / reduction
+    }
+
+    /// Through each transmission: the joint's effort is its reduction times the command.
+    fn drive(&mut self, _dt: f64, commanded: &[f64], applied: &mut [f64]) {
+        for (k, (out, command)) in applied.iter_mut().zip(commanded).enumerate() {
+            *out = self.reductions.get(k).copied().unwrap_or(1.0) * command;
+        }
     }
 
     fn scene(&self) -> Scene {

@@ -18,6 +18,6 @@ mod whitworth;
 pub use actuators::{ActuatorKind, ActuatorSpec, ActuatorSpecs};
 pub use catalogue::build;
 pub use error::MachineError;
-pub use generic::{PointSpec, PointSpecs, SpringSpec, GENERIC};
+pub use generic::{PointAt, PointSpec, PointSpecs, SpringSpec, GENERIC};
 pub use machine::{default_joint_signals, effort_unit, Excitation, Machine, Stability};
 pub(crate) use parts::{joint, link, process_params};

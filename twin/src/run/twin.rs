@@ -168,6 +168,8 @@ impl Twin {
     /// mechanism, the machine, the signal layout, sensors, metrics and faults, and the controller
     /// bound to the plant.
     pub fn new(mut loaded: LoadedScenario) -> Result<Self, TwinError> {
+        let mut mechanism = urdf::load_str(&loaded.urdf_text, &loaded.urdf_source)?;
+        loaded.scenario.gravity = (loaded.scenario.gravity_given).in_plane(&mechanism.plane);
         let scenario = &loaded.scenario;
         // A scenario entry naming what the URDF or the run lacks.
         let binding = |reason: String| TwinError::Binding {
@@ -175,7 +177,6 @@ impl Twin {
             urdf: loaded.urdf_source.clone(),
             reason,
         };
-        let mut mechanism = urdf::load_str(&loaded.urdf_text, &loaded.urdf_source)?;
         scenario.plant.apply(&mut mechanism).map_err(binding)?;
         let initial = initial_states(scenario, &mechanism).map_err(binding)?;
         let contacts = contact_detector(scenario, &mechanism).map_err(binding)?;
@@ -352,6 +353,12 @@ impl Twin {
     /// The plant as the controller sees it: its measured signals and actuators (with limits).
     pub fn plant(&self) -> &PlantInterface {
         &self.plant
+    }
+
+    /// What the URDF holds that the twin left out or read in its own way (a `<frame>`, a weld
+    /// to `world`, an offset along the joints' axis), one line each, naming the element.
+    pub fn urdf_notes(&self) -> &[String] {
+        &self.mechanism.notes
     }
 
     /// Runs the scenario; with `recording`, writes the .rrd there (atomically: a partial file

@@ -4,6 +4,7 @@
 use super::builtin::find_urdf;
 use super::{LoadedScenario, MetricSpec, Scenario, ScenarioError};
 use crate::files::read_text;
+use crate::mechanism::Plane;
 use framework::{describe_toml_error, from_table, shortened};
 use framework::{parameter_message, ControllerError, Registry};
 use std::path::{Path, PathBuf};
@@ -277,7 +278,8 @@ impl ScenarioBuilder {
         } else {
             text
         };
-        let scenario: Scenario = from_table(&table).map_err(invalid)?;
+        let mut scenario: Scenario = from_table(&table).map_err(invalid)?;
+        scenario.gravity = scenario.gravity_given.in_plane(&Plane::IDENTITY);
         scenario.validate().map_err(invalid)?;
         let spec = &scenario.controller;
         let controller = registry
@@ -295,6 +297,7 @@ impl ScenarioBuilder {
             })?,
             urdf_source,
             controller,
+            folder,
         })
     }
 

@@ -98,9 +98,15 @@ pub struct Scenario {
     pub dt: f64,
     /// Controller period, s; a whole multiple of dt (zero-order hold). Defaults to dt.
     pub control_period: Option<f64>,
-    /// Gravitational acceleration in the world frame [x, y], m/s² (default [0, −9.81]).
-    #[serde(default = "default_gravity")]
+    /// Gravitational acceleration in the plane [x, y], m/s² (default [0, −9.81]): the TOML's
+    /// `gravity` as two numbers, or its three in the URDF's own frame laid onto the plane with
+    /// the URDF ([`Scenario::gravity_given`]) once the twin is bound.
+    #[serde(skip)]
     pub gravity: [f64; 2],
+    /// The TOML's `gravity` as given: [x, y] in the plane, or [x, y, z] in the URDF's frame
+    /// (`[0, 0, -9.81]` for a z-up model).
+    #[serde(rename = "gravity", default = "default_gravity")]
+    pub gravity_given: Gravity,
     /// RK4 substeps per physics step (efforts and process loads are held over the step).
     #[serde(default = "default_substeps")]
     pub substeps: usize,
@@ -281,8 +287,32 @@ fn default_machine() -> String {
     crate::machines::GENERIC.into()
 }
 
-fn default_gravity() -> [f64; 2] {
-    [0.0, -9.81]
+fn default_gravity() -> Gravity {
+    Gravity::InPlane([0.0, -9.81])
+}
+
+/// Gravity as a scenario gives it.
+#[derive(Debug, Clone, Copy, Deserialize, PartialEq)]
+#[serde(untagged)]
+pub enum Gravity {
+    /// [x, y] in the plane the mechanism moves in, m/s².
+    InPlane([f64; 2]),
+    /// [x, y, z] in the URDF's frame, m/s²; its part along the plane's normal is borne by the
+    /// joints and moves nothing.
+    InUrdf([f64; 3]),
+}
+
+impl Gravity {
+    /// The gravity in the plane `plane` lays the URDF onto.
+    pub(crate) fn in_plane(&self, plane: &crate::mechanism::Plane) -> [f64; 2] {
+        match *self {
+            Gravity::InPlane(g) => g,
+            Gravity::InUrdf(g) => {
+                let [x, y, _] = plane.vector(g);
+                [x, y]
+            }
+        }
+    }
 }
 
 fn default_substeps() -> usize {
@@ -308,6 +338,9 @@ pub struct LoadedScenario {
     pub urdf_source: String,
     /// The scenario's controller, designed from its parameters; bound to the plant by the twin.
     pub(crate) controller: Box<dyn Controller>,
+    /// The scenario file's folder, where the data files its controller names are found (none for
+    /// a built-in or text scenario: the working folder).
+    pub(crate) folder: Option<std::path::PathBuf>,
 }
 
 impl std::fmt::Debug for LoadedScenario {
