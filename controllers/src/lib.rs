@@ -28,6 +28,7 @@ pub fn builtin() -> Registry {
     Registry::with([
         passive::entry(),
         generic::joint_pid::entry(),
+        generic::replay::entry(),
         whitworth::crank_pi::entry(),
         whitworth::osmc::entry(),
         whitworth::ffc::entry(),

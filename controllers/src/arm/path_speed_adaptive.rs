@@ -363,6 +363,7 @@ mod tests {
                     effort_limit: limit,
                 })
                 .collect(),
+            ..Default::default()
         }
     }
 

@@ -714,6 +714,7 @@ mod tests {
                     effort_limit: limit,
                 })
                 .collect(),
+            ..Default::default()
         };
         let params = ServoParams::default();
         let mut servo = ArmServo::new("test", params.clone()).unwrap();

@@ -405,6 +405,7 @@ pub(crate) mod test_rig {
                 kind: EffortKind::Force,
                 effort_limit,
             }],
+            ..Default::default()
         }
     }
 
@@ -430,7 +431,7 @@ pub(crate) mod test_rig {
                 Reference::Sine {
                     angular_frequency, ..
                 } => std::f64::consts::TAU / angular_frequency,
-                Reference::Constant { .. } => rig.duration / 2.0,
+                _ => rig.duration / 2.0,
             };
         let (mut position_errors, mut velocity_errors) = (Vec::new(), Vec::new());
         let (mut late_position_max, mut force_max) = (0.0_f64, 0.0_f64);

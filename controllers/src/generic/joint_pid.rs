@@ -2,15 +2,18 @@
 //! position and velocity, for any mechanism.
 //!
 //! `u = kp·(r − q) + ki·∫(r − q) dt + kd·(ṙ − q̇)`, clipped to the actuator's effort limit. The
-//! setpoint r is the joint's `target` (held, ṙ = 0), or with `follow_reference` the scenario's
-//! `[reference]` (`reference`, `reference_rate`) plus `target` as an offset. Anti-windup: the
+//! setpoint r is the joint's `target` (held, ṙ = 0), or the joint's own `reference` (any
+//! [`Reference`]: a step, a ramp, waypoints, a table, …) plus `target` as an offset, or with
+//! `follow_reference` the scenario's `[reference]` (`reference`, `reference_rate`) plus `target`. Anti-windup: the
 //! integral stops growing while the effort is clipped. The derivative acts on the measured
 //! velocity (no filter: `<joint>.velocity` is the drive's own speed signal). No gravity
 //! feed-forward: the law knows only what it measures.
 
+use super::joint_reference;
 use crate::check::{finite, non_negative};
 use framework::{parse_params, Entry, ANY_MACHINE};
 use framework::{Controller, ControllerError, Measurement, PlantInterface, SignalSpec, Unit};
+use models::reference::Reference;
 use serde::Deserialize;
 use std::collections::BTreeMap;
 
@@ -36,8 +39,10 @@ pub struct JointLoop {
     pub ki: f64,
     /// Derivative gain, N·m·s/rad or N·s/m.
     pub kd: f64,
-    /// The setpoint held, rad or m; with `follow_reference`, an offset on the reference.
+    /// The setpoint held, rad or m; with `reference` or `follow_reference`, an offset on it.
     pub target: f64,
+    /// The joint's own reference, rad or m (`reference = { kind = "waypoints", … }`).
+    pub reference: Option<Reference>,
     /// Follow the scenario's `[reference]` (its value and rate).
     pub follow_reference: bool,
 }
@@ -55,7 +60,9 @@ pub struct LoopGains {
     pub kd: f64,
     /// Setpoint or offset.
     pub target: f64,
-    /// Whether the setpoint is the reference's.
+    /// The joint's own reference (its table read when bound to the plant).
+    pub reference: Option<Reference>,
+    /// Whether the setpoint is the scenario's reference.
     pub follow_reference: bool,
 }
 
@@ -64,12 +71,23 @@ pub fn design(params: &JointPidParams) -> Result<Vec<LoopGains>, ControllerError
     let mut gains = Vec::with_capacity(params.joints.len());
     for (joint, l) in &params.joints {
         let key = |k: &str| format!("joints.{joint}.{k}");
+        if let Some(reference) = &l.reference {
+            joint_reference::check(NAME, &key("reference"), reference)?;
+            if l.follow_reference {
+                return Err(ControllerError::parameter_table(
+                    NAME,
+                    key("reference"),
+                    "give a joint its own reference or follow_reference = true, not both",
+                ));
+            }
+        }
         gains.push(LoopGains {
             joint: joint.clone(),
             kp: non_negative(NAME, &key("kp"), l.kp)?,
             ki: non_negative(NAME, &key("ki"), l.ki)?,
             kd: non_negative(NAME, &key("kd"), l.kd)?,
             target: finite(NAME, &key("target"), l.target)?,
+            reference: l.reference.clone(),
             follow_reference: l.follow_reference,
         });
     }
@@ -134,12 +152,18 @@ impl Controller for JointPid {
         self.loops.clear();
         for gains in &self.gains {
             let actuator = plant.actuator(&gains.joint)?;
+            let mut gains = gains.clone();
+            if let Some(reference) = &mut gains.reference {
+                let key = format!("joints.{}.reference", gains.joint);
+                let kind = plant.actuators[actuator].kind;
+                joint_reference::read_table(NAME, &key, reference, plant, kind)?;
+            }
             self.loops.push(Bound {
                 position: plant.signal(&format!("{}.position", gains.joint))?,
                 velocity: plant.signal(&format!("{}.velocity", gains.joint))?,
                 actuator,
                 limit: plant.actuators[actuator].effort_limit,
-                gains: gains.clone(),
+                gains,
                 integral: 0.0,
                 error: 0.0,
                 effort: 0.0,
@@ -159,8 +183,12 @@ impl Controller for JointPid {
         });
         for l in &mut self.loops {
             let g = &l.gains;
-            let [r, rate] = match (g.follow_reference, reference) {
-                (true, Some([r, rate])) => [r + g.target, rate],
+            let [r, rate] = match (&g.reference, g.follow_reference, reference) {
+                (Some(own), _, _) => {
+                    let sample = own.sample(measurement.time);
+                    [sample.position + g.target, sample.rate]
+                }
+                (None, true, Some([r, rate])) => [r + g.target, rate],
                 _ => [g.target, 0.0],
             };
             l.error = r - measurement.get(l.position);
@@ -202,6 +230,7 @@ mod tests {
                 kind: EffortKind::Torque,
                 effort_limit: 10.0,
             }],
+            ..Default::default()
         }
     }
 
@@ -234,6 +263,40 @@ mod tests {
         );
         assert_eq!(efforts[0], 10.0);
         assert!((pid.loops[0].integral - 0.001).abs() < 1e-15);
+    }
+
+    #[test]
+    fn a_joints_own_reference_is_its_setpoint_and_rate() {
+        let params: JointPidParams = toml::from_str(
+            "[joints.a]\nkp = 10.0\nkd = 1.0\ntarget = 0.1\n\
+             reference = { kind = \"ramp\", rate = 0.5, start = 1.0 }",
+        )
+        .unwrap();
+        let mut pid = JointPid::new(params).unwrap();
+        pid.reset(&plant()).unwrap();
+        let mut efforts = [0.0];
+        let signals = [0.0, 0.0];
+        pid.update(
+            &Measurement {
+                time: 2.0,
+                signals: &signals,
+            },
+            0.01,
+            &mut efforts,
+        );
+        // r = 0.5·(2 − 1) + 0.1, ṙ = 0.5: 10·0.6 + 1·0.5
+        assert!((efforts[0] - 6.5).abs() < 1e-12, "{efforts:?}");
+        let both: JointPidParams = toml::from_str(
+            "[joints.a]\nfollow_reference = true\nreference = { kind = \"constant\", value = 1.0 }",
+        )
+        .unwrap();
+        let error = JointPid::new(both).err().unwrap().to_string();
+        assert!(error.contains("params.joints.a.reference: give"), "{error}");
+        let table: JointPidParams =
+            toml::from_str("[joints.a]\nreference = { kind = \"table\", file = \"moves.csv\" }")
+                .unwrap();
+        let error = JointPid::new(table).unwrap().reset(&plant()).unwrap_err();
+        assert!(error.to_string().contains("data files"), "{error}");
     }
 
     #[test]

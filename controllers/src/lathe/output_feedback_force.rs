@@ -584,6 +584,7 @@ mod tests {
                 actuator("slide_1", EffortKind::Force, 1e4),
                 actuator("slide_2", EffortKind::Force, 1e4),
             ],
+            ..Default::default()
         }
     }
 

@@ -177,6 +177,7 @@ mod tests {
                 kind: EffortKind::Torque,
                 effort_limit: limit,
             }],
+            ..Default::default()
         }
     }
 

@@ -395,7 +395,7 @@ mod tests {
         let worst = samples[2000..]
             .iter()
             .map(|s| {
-                let r = plant.reference.unwrap().sample(s.time).position;
+                let r = plant.reference.as_ref().unwrap().sample(s.time).position;
                 (r - s.ram_position).abs()
             })
             .fold(0.0, f64::max);

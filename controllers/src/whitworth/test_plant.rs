@@ -86,6 +86,7 @@ impl Plant {
                 kind: EffortKind::Torque,
                 effort_limit: 300.0,
             }],
+            ..Default::default()
         }
     }
 
@@ -130,7 +131,7 @@ impl Plant {
             let y = geometry.ram_position(self.q);
             let v = geometry.ram_jacobian(self.q) * self.crank_speed;
             let mut signals = vec![self.q - FRAC_PI_2, self.crank_speed, self.q, y, v];
-            if let Some(reference) = self.reference {
+            if let Some(reference) = &self.reference {
                 let r = reference.sample(time);
                 signals.extend([r.position, r.rate, r.acceleration]);
             }

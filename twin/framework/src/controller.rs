@@ -1,8 +1,10 @@
 //! The controller interface: measurement in, joint efforts out.
 
 use crate::event::Event;
+use crate::plant_model::{Dynamics, ScenarioFiles};
 use crate::signal::SignalSpec;
 use std::fmt;
+use std::sync::Arc;
 use thiserror::Error;
 
 /// What an actuated joint takes as effort.
@@ -36,9 +38,10 @@ pub struct Actuator {
 }
 
 /// The plant as a controller may know it before the run: which signals it measures and which
-/// joints it can drive. Indices into [`Measurement::signals`] and into the effort slice follow
-/// the order of `signals` and `actuators`.
-#[derive(Debug, Clone, PartialEq)]
+/// joints it can drive, and what the engine lends it (its equations of motion, the scenario's
+/// data files). Indices into [`Measurement::signals`] and into the effort slice follow the order
+/// of `signals` and `actuators`.
+#[derive(Clone, Default)]
 pub struct PlantInterface {
     /// The machine's name, e.g. `whitworth`.
     pub machine: String,
@@ -47,6 +50,63 @@ pub struct PlantInterface {
     pub signals: Vec<String>,
     /// The actuated joints, in the order of the effort slice [`Controller::update`] fills.
     pub actuators: Vec<Actuator>,
+    /// The mechanism's equations of motion, where the engine lends them (the twin does).
+    pub dynamics: Option<Arc<dyn Dynamics>>,
+    /// The data files beside the scenario, where the engine reads them (the twin does).
+    pub files: Option<Arc<dyn ScenarioFiles>>,
+}
+
+impl fmt::Debug for PlantInterface {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_struct("PlantInterface")
+            .field("machine", &self.machine)
+            .field("signals", &self.signals)
+            .field("actuators", &self.actuators)
+            .field("dynamics", &self.dynamics.as_ref().map(|d| d.coordinates()))
+            .field("files", &self.files.is_some())
+            .finish()
+    }
+}
+
+/// Two plants are equal when they measure and drive the same and lend the same model and files
+/// (the same objects).
+impl PartialEq for PlantInterface {
+    fn eq(&self, other: &Self) -> bool {
+        fn same<T: ?Sized>(a: &Option<Arc<T>>, b: &Option<Arc<T>>) -> bool {
+            match (a, b) {
+                (Some(a), Some(b)) => Arc::ptr_eq(a, b),
+                (None, None) => true,
+                _ => false,
+            }
+        }
+        self.machine == other.machine
+            && self.signals == other.signals
+            && self.actuators == other.actuators
+            && same(&self.dynamics, &other.dynamics)
+            && same(&self.files, &other.files)
+    }
+}
+
+impl PlantInterface {
+    /// The equations of motion, or an error saying the controller `controller` needs them.
+    pub fn dynamics(&self, controller: &str) -> Result<&Arc<dyn Dynamics>, ControllerError> {
+        self.dynamics
+            .as_ref()
+            .ok_or_else(|| ControllerError::NoModel {
+                controller: controller.to_string(),
+                machine: self.machine.clone(),
+                what: "equations of motion",
+            })
+    }
+
+    /// The scenario's files, or an error saying the controller `controller` needs them.
+    pub fn files(&self, controller: &str) -> Result<&Arc<dyn ScenarioFiles>, ControllerError> {
+        self.files.as_ref().ok_or_else(|| ControllerError::NoModel {
+            controller: controller.to_string(),
+            machine: self.machine.clone(),
+            what: "data files",
+        })
+    }
 }
 
 impl PlantInterface {
@@ -164,6 +224,17 @@ pub enum ControllerError {
         expected: EffortKind,
         /// The effort the joint takes.
         found: EffortKind,
+    },
+    /// The controller needs what the engine lends (its equations of motion, the scenario's data
+    /// files) and the plant it is bound to lends none.
+    #[error("controller `{controller}` needs the {what} of machine `{machine}`, which this plant does not lend (run it in the twin)")]
+    NoModel {
+        /// The controller's name.
+        controller: String,
+        /// The machine's name.
+        machine: String,
+        /// What it needs: `equations of motion` or `data files`.
+        what: &'static str,
     },
     /// The controller is registered for another machine than the one it was asked for.
     #[error("controller `{controller}` is written for machine `{written_for}`, not `{machine}`")]

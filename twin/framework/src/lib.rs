@@ -15,6 +15,7 @@
 mod controller;
 mod event;
 mod params;
+mod plant_model;
 mod registry;
 mod signal;
 
@@ -26,5 +27,6 @@ pub use event::{Event, EventKind, EventLevel};
 pub use params::{
     describe_toml_error, deserialize_table, from_table, parse_params, shortened, TableError,
 };
+pub use plant_model::{Coordinate, Dynamics, LoggedEfforts, ScenarioFiles};
 pub use registry::{Constructor, Entry, Registry, ANY_MACHINE};
 pub use signal::{signal_names, SignalSpec, Unit};

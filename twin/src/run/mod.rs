@@ -7,6 +7,7 @@ mod evaluate;
 mod layout;
 mod observer;
 mod operating;
+mod plant_model;
 mod record;
 mod session;
 mod simulator;

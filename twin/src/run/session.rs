@@ -350,7 +350,7 @@ impl<T: DerefMut<Target = Twin>> Session<T> {
 
     /// The scenario's reference triple at `time` with the host's offset, if it has one.
     fn reference_at(&self, time: f64) -> Option<[f64; 3]> {
-        let sample = self.twin.loaded.scenario.reference?.sample(time);
+        let sample = self.twin.loaded.scenario.reference.as_ref()?.sample(time);
         let mut reference = [sample.position, sample.rate, sample.acceleration];
         offset(&mut reference, self.reference_offset);
         Some(reference)

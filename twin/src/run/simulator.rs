@@ -171,6 +171,7 @@ impl Simulator {
             urdf_text: recipe.urdf_text.clone(),
             urdf_source: recipe.urdf_source.clone(),
             controller,
+            folder: recipe.folder.clone(),
         };
         let mut session = Session::new(Box::new(Twin::new(loaded)?));
         let failure = session.begin()?;

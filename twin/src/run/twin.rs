@@ -3,11 +3,13 @@
 
 use super::evaluate::Evaluator;
 use super::layout::LayoutParts;
+use super::plant_model::{MechanismDynamics, ScenarioFolder};
 use super::record::{RecordingObserver, RecordingParts};
 use super::session::Session;
 use super::spectra::SpectraPlan;
 use super::stats::RunStats;
 use super::{Divergence, FailureKind, Observer, ObserverError, RunSummary, SignalLayout};
+use crate::data::PlantColumns;
 use crate::faults::FaultSet;
 use crate::machines::{self, Machine, MachineError};
 use crate::mechanism::{Joint, JointMotion, Mechanism};
@@ -196,6 +198,17 @@ impl Twin {
             machine: scenario.machine.clone(),
             signals: layout.signals.clone(),
             actuators,
+            dynamics: Some(Arc::new(MechanismDynamics::new(
+                &mechanism,
+                scenario.gravity,
+                &initial,
+                &actuated,
+            ))),
+            files: Some(Arc::new(ScenarioFolder::new(
+                loaded.folder.clone(),
+                PlantColumns::of_layout(&layout),
+                scenario.control_period(),
+            ))),
         };
         let sensors = bind_sensors(&loaded, &plant)?;
         let context = format!("{} (URDF {})", loaded.source, loaded.urdf_source);

@@ -31,6 +31,9 @@ impl Scenario {
         }
         if let Some(reference) = &self.reference {
             reference.validate()?;
+            if reference.table_file().is_some() {
+                return Err("reference: a table is read per joint ([controller.params.joints.<joint>] reference = { kind = \"table\", … }); give [reference] another kind".into());
+            }
         }
         self.plant.validate()?;
         for (joint, state) in &self.initial {

@@ -1,0 +1,127 @@
+//! The controllers for any mechanism beyond `joint-pid`, on the shipped examples through the
+//! `twin` binary: `replay` reproducing a run from its own efforts, `computed-torque` tracking a
+//! quintic waypoint move on the double pendulum, `lqr` balancing the cart-pole's pole upright.
+
+mod common;
+
+use common::{scratch, twin};
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+
+fn repo() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
+}
+
+/// A shipped example's scenario file, `examples/<example>/<file>.toml`.
+fn scenario(example: &str, file: &str) -> String {
+    let path = repo().join(format!("examples/{example}/{file}.toml"));
+    path.to_string_lossy().into_owned()
+}
+
+fn ok(output: &std::process::Output) -> String {
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(output.status.success(), "{stderr}");
+    String::from_utf8_lossy(&output.stdout).into_owned()
+}
+
+fn refused(output: &std::process::Output) -> String {
+    assert!(!output.status.success(), "ran, and should not have");
+    String::from_utf8_lossy(&output.stderr).into_owned()
+}
+
+/// A run CSV's cells by column name (without the unit), as written.
+fn cells(path: &Path) -> HashMap<String, Vec<String>> {
+    let text = std::fs::read_to_string(path).unwrap();
+    let mut lines = text.lines();
+    let names: Vec<String> = (lines.next().unwrap().split(','))
+        .map(|h| h.split(" [").next().unwrap().to_string())
+        .collect();
+    let mut table: HashMap<String, Vec<String>> = HashMap::new();
+    for line in lines {
+        for (name, cell) in names.iter().zip(line.split(',')) {
+            table.entry(name.clone()).or_default().push(cell.into());
+        }
+    }
+    table
+}
+
+#[test]
+fn replaying_a_runs_own_efforts_reproduces_it_bit_for_bit() {
+    let dir = scratch("generic-controllers", "replay");
+    let logged = dir.join("logged.csv").to_string_lossy().into_owned();
+    let pid = scenario("double-pendulum", "double-pendulum");
+    ok(&twin(
+        &["run", &pid, "--csv", &logged, "--out", "pid.rrd"],
+        &dir,
+    ));
+    let file = format!("controller.params.file=\"{logged}\"");
+    let replay = scenario("double-pendulum", "replay");
+    let run = [
+        "run",
+        &replay,
+        "--set",
+        &file,
+        "--csv",
+        "replayed.csv",
+        "--out",
+        "replay.rrd",
+    ];
+    ok(&twin(&run, &dir));
+    let (a, b) = (
+        cells(&dir.join("logged.csv")),
+        cells(&dir.join("replayed.csv")),
+    );
+    assert_eq!(a["time"], b["time"]);
+    let mut compared = 0;
+    for (name, column) in &a {
+        if name.starts_with("true.") || name.starts_with("effort.") {
+            assert_eq!(column, &b[name], "{name}");
+            compared += 1;
+        }
+    }
+    // Two efforts and every true signal (the joints' and the tip's), 4001 rows each (0 to 4 s).
+    assert!(compared >= 2 + 8 && a["time"].len() == 4001, "{compared}");
+}
+
+#[test]
+fn a_replay_names_the_file_row_and_column_it_cannot_take() {
+    let dir = scratch("generic-controllers", "replay-refusals");
+    let replay = scenario("double-pendulum", "replay");
+    let write = |name: &str, text: &str| {
+        std::fs::write(dir.join(name), text).unwrap();
+        format!("controller.params.file=\"{}\"", dir.join(name).display())
+    };
+    let header = "time [s],effort.shoulder [N·m],effort.elbow [N·m]\n";
+    let cases = [
+        (
+            write("cell.csv", &format!("{header}0,1,2\n0.001,1,x\n")),
+            "row 3, column \"effort.elbow [N·m]\"",
+        ),
+        (
+            write(
+                "unit.csv",
+                &format!("time [s],effort.shoulder [N],effort.elbow [N·m]\n0,1,2\n0.001,1,2\n"),
+            ),
+            "column \"effort.shoulder [N]\"",
+        ),
+        (
+            write(
+                "missing.csv",
+                "time [s],effort.shoulder [N·m]\n0,1\n0.001,1\n",
+            ),
+            "no column \"effort.elbow [N·m]\"",
+        ),
+    ];
+    for (set, expected) in cases {
+        let stderr = refused(&twin(
+            &["run", &replay, "--set", &set, "--out", "x.rrd"],
+            &dir,
+        ));
+        assert!(stderr.contains(expected), "{stderr}");
+        assert!(
+            stderr.contains("controller.params.file") || stderr.contains("params.file"),
+            "{stderr}"
+        );
+        assert_eq!(stderr.trim().lines().count(), 1, "{stderr}");
+    }
+}
