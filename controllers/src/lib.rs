@@ -29,6 +29,7 @@ pub fn builtin() -> Registry {
         passive::entry(),
         generic::joint_pid::entry(),
         generic::replay::entry(),
+        generic::computed_torque::entry(),
         whitworth::crank_pi::entry(),
         whitworth::osmc::entry(),
         whitworth::ffc::entry(),

@@ -1,6 +1,8 @@
 //! Controllers for any mechanism: they need nothing of a machine but its joints' signals and
-//! actuators, or a logged run's efforts.
+//! actuators, and the model-based ones the mechanism's equations of motion the engine lends.
 
+pub mod computed_torque;
 pub mod joint_pid;
 mod joint_reference;
+mod model;
 pub mod replay;
