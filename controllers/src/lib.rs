@@ -30,6 +30,7 @@ pub fn builtin() -> Registry {
         generic::joint_pid::entry(),
         generic::replay::entry(),
         generic::computed_torque::entry(),
+        generic::lqr::entry(),
         whitworth::crank_pi::entry(),
         whitworth::osmc::entry(),
         whitworth::ffc::entry(),

@@ -4,5 +4,6 @@
 pub mod computed_torque;
 pub mod joint_pid;
 mod joint_reference;
+pub mod lqr;
 mod model;
 pub mod replay;
