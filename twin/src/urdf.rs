@@ -644,7 +644,7 @@ impl Loader<'_> {
                     axis[0], axis[1], axis[2]
                 )
             } else {
-                let [x, y, z] = self.plane.to_urdf(axis);
+                let [x, y, z] = self.plane.in_urdf(axis);
                 let [nx, ny, nz] = self.plane.normal();
                 format!(
                     "not planar: the revolute axes must be parallel (most turn about ({nx}, {ny}, {nz}), normal to the plane), got ({x}, {y}, {z})"

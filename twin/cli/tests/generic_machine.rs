@@ -635,3 +635,106 @@ fn joint_pid_turns_the_press_against_its_pressing_force() {
     );
     assert!(metric("loop_closure_error_max") < 1e-9, "{summary:#}");
 }
+
+/// The double pendulum's scenario in `dir` with both joints driven by a DC servo (5 N·m/A at
+/// the joint, 10 A) and joint-pid's gains turned from N·m into A.
+fn servo_pendulum(dir: &Path) -> PathBuf {
+    let text = std::fs::read_to_string(example()).unwrap();
+    let urdf = urdf_of("double-pendulum", "double_pendulum.urdf");
+    let mut text = text.replace(
+        "urdf = \"double_pendulum.urdf\"",
+        &format!("urdf = {urdf:?}"),
+    );
+    for (from, to) in [
+        ("kp = 120.0", "kp = 24.0"),
+        ("ki = 60.0 ", "ki = 12.0 "),
+        ("kd = 12.0 ", "kd = 2.4  "),
+        ("kp = 40.0", "kp = 8.0"),
+        ("ki = 20.0", "ki = 4.0"),
+        ("kd = 3.0", "kd = 0.6"),
+    ] {
+        assert!(text.contains(from), "{from}");
+        text = text.replacen(from, to, 1);
+    }
+    text.push_str(
+        r#"
+[actuators."*"]
+kind = "dc-servo"
+
+[actuators."*".drive]
+torque_constant = 0.1       # N·m/A
+back_emf_constant = 0.1     # V·s/rad
+resistance = 1.0            # Ω
+inductance = 1.0e-3         # H
+gear_ratio = 50.0
+supply_voltage = 48.0       # V
+current_limit = 10.0        # A
+current_bandwidth = 2000.0  # rad/s
+current_loop_period = 1.0e-4
+"#,
+    );
+    let path = dir.join("servo.toml");
+    std::fs::write(&path, text).unwrap();
+    path
+}
+
+#[test]
+fn dc_servos_drive_the_double_pendulum_to_its_targets() {
+    let dir = scratch("generic-machine", "dc-servo");
+    let scenario = servo_pendulum(&dir);
+    let run = [
+        "run",
+        scenario.to_str().unwrap(),
+        "--csv",
+        "run.csv",
+        "--out",
+        "run.rrd",
+    ];
+    ok(&twin(&run, &dir));
+    let table = columns(&dir.join("run.csv"));
+    // Commands are currents, and each servo's current is a signal of its own.
+    let current = &table["shoulder.current"];
+    let command = &table["effort.shoulder"];
+    let n = current.len();
+    assert!(current.iter().all(|i| i.abs() <= 10.0 + 1e-9));
+    // Held, the shoulder's current carries the bars' weight: the same torque as the ideal
+    // drive's, 5 N·m per ampere.
+    assert!((current[n - 1] - command[n - 1]).abs() < 0.05 * command[n - 1].abs().max(0.1));
+    let count = std::f64::consts::TAU / 4096.0;
+    for (joint, target) in [("shoulder", 0.6), ("elbow", -0.4)] {
+        let positions = &table[&format!("true.{joint}.position")];
+        for &q in &positions[positions.len() - 1000..] {
+            assert!((q - target).abs() <= 4.0 * count, "{joint} at {q}");
+        }
+    }
+    // What the servo cannot take is refused by its entry.
+    for (set, expected) in [
+        ("actuators.\"*\".drive.resistance=0", "actuators.\"*\""),
+        ("actuators.\"*\".kind=effort", "is for kind = \"dc-servo\""),
+    ] {
+        let args = [
+            "run",
+            scenario.to_str().unwrap(),
+            "--set",
+            set,
+            "--out",
+            "x.rrd",
+        ];
+        let output = twin(&args, &dir);
+        let stderr = String::from_utf8_lossy(&output.stderr);
+        assert_eq!(output.status.code(), Some(1), "{set}: {stderr}");
+        assert!(stderr.contains(expected), "{set}: {stderr}");
+    }
+    let args = [
+        "run",
+        "arm-milling",
+        "--duration",
+        "0.01",
+        "--set",
+        "actuators.elbow.kind=dc-servo",
+        "--out",
+        "x.rrd",
+    ];
+    let stderr = String::from_utf8_lossy(&twin(&args, &dir).stderr).into_owned();
+    assert!(stderr.contains("the generic machine's"), "{stderr}");
+}

@@ -1,13 +1,15 @@
 //! `[actuators.<joint>]`: how the scenario has each actuator turn its command into the joint's
 //! effort — through the machine's own drive (`kind = "drive"`, the default), or directly, as an
 //! ideal drive (`kind = "effort"`: the command is the joint's torque, N·m, or force, N, clipped
-//! to the URDF `<limit effort>`). `[actuators."*"]` speaks for every actuator of the machine; a
-//! joint's own entry overrides it. The table is made to grow: a later kind (a DC servo from its
-//! data sheet) is another [`ActuatorKind`] with its fields in [`ActuatorSpec`].
+//! to the URDF `<limit effort>`), or on the generic machine through a DC servo drive from its data
+//! sheet (`kind = "dc-servo"` with `[actuators.<joint>.drive]`: the command is a current, A; the
+//! drive the arm's joints have, [`models::drive`]). `[actuators."*"]` speaks for every actuator
+//! of the machine; a joint's own entry overrides it.
 
 use super::MachineError;
 use crate::mechanism::Mechanism;
 use framework::Actuator;
+use models::drive::DriveParams;
 use serde::Deserialize;
 use std::collections::BTreeMap;
 
@@ -25,14 +27,19 @@ pub enum ActuatorKind {
     /// An ideal drive: the command is the joint's torque (N·m) or force (N), clipped to the URDF
     /// effort limit and applied as it is, with no drive state (no current) of its own.
     Effort,
+    /// A DC servo drive from the entry's `drive` data sheet (the generic machine's): the command
+    /// is the current, A, clipped to the drive's current limit; the joint gets `G·k_t·i`.
+    DcServo,
 }
 
 /// One entry of `[actuators]`.
 #[derive(Debug, Clone, Copy, Default, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields, default)]
 pub struct ActuatorSpec {
-    /// `drive` (the default) or `effort`.
+    /// `drive` (the default), `effort` or `dc-servo`.
     pub kind: ActuatorKind,
+    /// A `dc-servo`'s data sheet (`[actuators.<joint>.drive]`, SI units).
+    pub drive: Option<DriveParams>,
 }
 
 /// The scenario's `[actuators]` table: entries by joint name, or [`EVERY_ACTUATOR`].
@@ -53,6 +60,38 @@ pub fn key_of(specs: &ActuatorSpecs, joint: &str) -> String {
         format!("actuators.{joint}")
     } else {
         format!("actuators.\"{EVERY_ACTUATOR}\"")
+    }
+}
+
+/// Refuses a `dc-servo` on a machine with drives of its own (it is the generic machine's), and a
+/// data sheet on an entry of another kind.
+pub(super) fn check_kinds(specs: &ActuatorSpecs, generic: bool) -> Result<(), MachineError> {
+    for (name, spec) in specs {
+        let bad = |reason: &str| MachineError::Actuator {
+            key: format!("actuators.{}", quoted(name)),
+            reason: reason.into(),
+        };
+        match (spec.kind, spec.drive.is_some()) {
+            (ActuatorKind::DcServo, _) if !generic => {
+                return Err(bad("kind = \"dc-servo\" is the generic machine's: a built-in machine's drives are its own (\"drive\") or ideal (\"effort\")"));
+            }
+            (ActuatorKind::DcServo, false) => {
+                return Err(bad("kind = \"dc-servo\" needs its data sheet: [actuators.<joint>.drive] torque_constant, back_emf_constant, resistance, inductance, gear_ratio, supply_voltage, current_limit, current_bandwidth, current_loop_period"));
+            }
+            (ActuatorKind::Drive | ActuatorKind::Effort, true) => {
+                return Err(bad("a `drive` data sheet is for kind = \"dc-servo\""));
+            }
+            _ => {}
+        }
+    }
+    Ok(())
+}
+
+fn quoted(name: &str) -> String {
+    if name == EVERY_ACTUATOR {
+        format!("\"{name}\"")
+    } else {
+        name.to_string()
     }
 }
 

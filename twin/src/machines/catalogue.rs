@@ -43,8 +43,9 @@ pub fn build(
             reason: "it has no process: leave [process] out (loads on points: `[points]`)".into(),
         });
     }
+    actuators::check_kinds(actuators, name == GENERIC)?;
     let machine: Box<dyn Machine> = match name {
-        GENERIC => Box::new(generic::Generic::new(mechanism, points)?),
+        GENERIC => Box::new(generic::Generic::new(mechanism, points, actuators)?),
         "arm" => Box::new(arm::Arm::new(mechanism, process, actuators)?),
         "whitworth" => Box::new(whitworth::Whitworth::new(mechanism, process)?),
         "platform" => Box::new(platform::Platform::new(mechanism, process, actuators)?),

@@ -5,6 +5,9 @@
 //! with a workpiece, a buffer). Its actuators are the URDF's driven joints, ideal unless the
 //! scenario says otherwise ([`super::actuators`]).
 
+use super::actuators::ActuatorSpecs;
+use super::joint_drives::JointDrives;
+use super::machine::effort_unit;
 use super::{link, Machine, MachineError};
 use crate::mechanism::Mechanism;
 use crate::physics::{Load, MechanismState, NO_DAMPING, NO_STIFFNESS};
@@ -94,17 +97,18 @@ struct Point {
 
 pub struct Generic {
     points: Vec<Point>,
-    /// Each actuated joint's transmission reduction, in actuator order: the joint's effort is
-    /// this times the command (1 without a `<transmission>`).
-    reductions: Vec<f64>,
-    /// The actuated joints' names, in actuator order.
-    actuated: Vec<String>,
+    /// The driven joints' actuators: through their transmission, or a DC servo.
+    drives: JointDrives,
     /// The view: wide enough for every link turned any way about the base.
     bounds: Bounds,
 }
 
 impl Generic {
-    pub fn new(mechanism: &Mechanism, points: &PointSpecs) -> Result<Self, MachineError> {
+    pub fn new(
+        mechanism: &Mechanism,
+        points: &PointSpecs,
+        actuators: &ActuatorSpecs,
+    ) -> Result<Self, MachineError> {
         let mut resolved = Vec::with_capacity(points.len());
         for (name, spec) in points {
             let bad = |reason: String| MachineError::Point {
@@ -127,16 +131,9 @@ impl Generic {
                 spring: spec.spring,
             });
         }
-        let reductions = (mechanism.actuated_joints().into_iter())
-            .map(|j| mechanism.joints[j].reduction)
-            .collect();
-        let actuated = (mechanism.actuated_joints().into_iter())
-            .map(|j| mechanism.joints[j].name.clone())
-            .collect();
         Ok(Self {
             points: resolved,
-            reductions,
-            actuated,
+            drives: JointDrives::new(mechanism, actuators)?,
             bounds: reach(mechanism),
         })
     }
@@ -198,23 +195,23 @@ impl Machine for Generic {
                 SignalSpec::new(format!("{}.vy", p.name), Unit::MetrePerSecond, &rates),
             ]);
         }
+        specs.extend(self.drives.signals());
         specs
     }
 
-    /// The actuator's own limit: the joint's, less its transmission's reduction.
-    fn command_limit(&self, actuator: &Actuator) -> f64 {
-        let reduction = (self.reductions.iter())
-            .zip(&self.actuated)
-            .find(|(_, name)| **name == actuator.joint)
-            .map_or(1.0, |(r, _)| r.abs());
-        actuator.effort_limit / reduction
+    /// A DC servo's command is a current, A; an ideal actuator's its effort.
+    fn command_unit(&self, actuator: &Actuator) -> Unit {
+        (self.drives.command_unit(actuator)).unwrap_or_else(|| effort_unit(actuator.kind))
     }
 
-    /// Through each transmission: the joint's effort is its reduction times the command.
-    fn drive(&mut self, _dt: f64, commanded: &[f64], applied: &mut [f64]) {
-        for (k, (out, command)) in applied.iter_mut().zip(commanded).enumerate() {
-            *out = self.reductions.get(k).copied().unwrap_or(1.0) * command;
-        }
+    /// A DC servo's current limit; an ideal actuator's effort limit less its reduction.
+    fn command_limit(&self, actuator: &Actuator) -> f64 {
+        self.drives.command_limit(actuator)
+    }
+
+    /// Through each transmission, or each DC servo.
+    fn drive(&mut self, dt: f64, commanded: &[f64], applied: &mut [f64]) {
+        self.drives.drive(dt, commanded, applied);
     }
 
     fn scene(&self) -> Scene {
@@ -246,6 +243,8 @@ impl Machine for Generic {
             let ([x, y], [vx, vy]) = self.locate(p, state);
             signals[4 * k..4 * k + 4].copy_from_slice(&[x, y, vx, vy]);
         }
+        let points = 4 * self.points.len();
+        self.drives.measure(state, &mut signals[points..]);
     }
 
     fn loads(&mut self, _time: f64, state: &MechanismState, loads: &mut Vec<Load>) {

@@ -8,6 +8,7 @@ mod catalogue;
 mod error;
 mod feed_axis;
 mod generic;
+mod joint_drives;
 mod lathe;
 mod machine;
 mod milling;

@@ -76,7 +76,7 @@ impl Plane {
     }
 
     /// A vector of the plane's frame in the URDF's: Rᵀ·v.
-    pub fn to_urdf(&self, v: [f64; 3]) -> [f64; 3] {
+    pub fn in_urdf(&self, v: [f64; 3]) -> [f64; 3] {
         let r = &self.rotation;
         let column = |k: usize| r[0][k] * v[0] + r[1][k] * v[1] + r[2][k] * v[2];
         [column(0), column(1), column(2)]
