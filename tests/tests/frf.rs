@@ -4,6 +4,7 @@
 use std::f64::consts::TAU;
 use std::path::{Path, PathBuf};
 use twin_cli::analysis::milling::{analyze, LobeRequest};
+use twin_cli::flags::SetFlag;
 use twin_cli::frf::{measure, write, Excitation, FrfArgs, FrfError};
 
 const SCENARIO: &str = "milling-constant-15000";
@@ -22,7 +23,9 @@ fn tap(joint: &str, excitation: Excitation) -> FrfArgs {
         segment: 4096,
         seed: 1,
         controller: None,
-        set: vec!["process.cutting=false".into()],
+        values: SetFlag {
+            set: vec!["process.cutting=false".into()],
+        },
         out_dir: PathBuf::from("unused"),
     }
 }
@@ -270,7 +273,9 @@ fn excitation_and_scenario_cases(base: &FrfArgs) -> Vec<Case> {
         ),
         (
             FrfArgs {
-                set: vec!["process.cuting=false".into()],
+                values: SetFlag {
+                    set: vec!["process.cuting=false".into()],
+                },
                 ..base.clone()
             },
             &["process", "cuting", "cutting"],
@@ -290,7 +295,7 @@ fn a_diverging_run_is_named() {
     // The tap (100 N over 0.1 ms: 0.18 m/s) beyond a [health] speed limit of 0.05 m/s, with
     // the spindle nearly still so that only the tool can exceed it.
     let mut args = tap("tool_x", Excitation::Impulse);
-    args.set.extend(
+    args.values.set.extend(
         [
             "health.max_joint_speed=0.05",
             "initial.spindle.velocity=0",

@@ -1,22 +1,22 @@
 //! `twin bench`: steps per second of scenarios, with and without recording.
 
-use crate::engine_option::parse_engine;
 use crate::failure::Failure;
+use crate::flags::EngineFlag;
 use framework::Registry;
 use std::process::ExitCode;
 use twin::{Engine, Scenario, Twin, BUILTIN_SCENARIOS};
 
 /// `twin bench` arguments.
 #[derive(Debug, Clone, clap::Args)]
+#[command(mut_arg("engine", |arg| arg.help("The engine of every measurement (as `twin run --engine`); default: each scenario's own")))]
 pub struct BenchArgs {
     /// Built-in scenario names or scenario .toml files; none: every built-in scenario.
     pub scenarios: Vec<String>,
     /// Simulated time per measurement, s.
     #[arg(long, default_value_t = 10.0, allow_hyphen_values = true)]
     pub duration: f64,
-    /// The engine of every measurement (as `twin run --engine`); default: each scenario's own.
-    #[arg(long, value_name = "exact|rapier", value_parser = parse_engine)]
-    pub engine: Option<Engine>,
+    #[command(flatten)]
+    pub solver: EngineFlag,
 }
 
 /// Runs `twin bench`: a table of each scenario measured bare and recording to a scratch
@@ -42,7 +42,7 @@ pub fn run(args: &BenchArgs, registry: &Registry) -> Result<ExitCode, Failure> {
         let mut shape = (Engine::Exact, 0.0, 0, 0);
         for (rate, recording) in rates.iter_mut().zip([None, Some(out.as_path())]) {
             let loaded = Scenario::open(name)
-                .and_then(|builder| match args.engine {
+                .and_then(|builder| match args.solver.engine {
                     Some(engine) => builder.set("solver.engine", engine.name()),
                     None => Ok(builder),
                 })

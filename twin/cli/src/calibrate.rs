@@ -8,6 +8,7 @@ use crate::failure::Failure;
 use crate::fit_figures::{cost_plot, interval_plot, time_plot, AFTER, BEFORE, MEASURED};
 use crate::fit_options::{noise_levels, number};
 use crate::fit_tables::{rate_line, table_judged};
+use crate::flags::SetFlag;
 use framework::Registry;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -18,6 +19,7 @@ use twin::{CalibrationSpec, OutputFile, Overrides, Scenario};
 
 /// `twin calibrate` arguments.
 #[derive(Debug, Clone, clap::Args)]
+#[command(mut_arg("set", |arg| arg.help("Override a scenario value (as `twin run --set`) before the fit")))]
 pub struct CalibrateArgs {
     /// A built-in scenario name or a scenario .toml file (its `[calibration]` table, if any,
     /// gives defaults for everything below).
@@ -75,9 +77,8 @@ pub struct CalibrateArgs {
     /// How the runs are read (after the scenario's `[calibration.rename]`).
     #[command(flatten)]
     pub reading: DataFlags,
-    /// Override a scenario value (as `twin run --set`) before the fit.
-    #[arg(long = "set", value_name = "KEY=VALUE")]
-    pub set: Vec<String>,
+    #[command(flatten)]
+    pub values: SetFlag,
     /// Folder for calibration.json, calibrated.toml and calibration.rrd (created if missing).
     #[arg(long)]
     pub out_dir: Option<PathBuf>,
@@ -87,7 +88,7 @@ pub struct CalibrateArgs {
 /// the folder.
 pub fn run(args: &CalibrateArgs, registry: &Registry) -> Result<ExitCode, Failure> {
     let overrides = Overrides {
-        set: args.set.clone(),
+        set: args.values.set.clone(),
         ..Overrides::default()
     };
     let builder = Scenario::open(&args.scenario)?.overrides(&overrides)?;

@@ -8,6 +8,7 @@ use crate::failure::Failure;
 use crate::fit_figures::{residual_spectra, time_plot, BEFORE, MEASURED, RESIDUAL};
 use crate::fit_options::noise_levels;
 use crate::fit_tables::{rate_line, segment_table, table};
+use crate::flags::SetFlag;
 use framework::Registry;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -17,6 +18,7 @@ use twin::{OutputFile, Overrides, Scenario};
 
 /// `twin compare` arguments.
 #[derive(Debug, Clone, clap::Args)]
+#[command(mut_arg("set", |arg| arg.help("Override a scenario value (as `twin run --set`)")))]
 pub struct CompareArgs {
     /// A built-in scenario name or a scenario .toml file.
     pub scenario: String,
@@ -44,9 +46,8 @@ pub struct CompareArgs {
     /// the estimate from its data.
     #[arg(long = "noise", value_name = "NAME=SIGMA")]
     pub noise: Vec<String>,
-    /// Override a scenario value (as `twin run --set`).
-    #[arg(long = "set", value_name = "KEY=VALUE")]
-    pub set: Vec<String>,
+    #[command(flatten)]
+    pub values: SetFlag,
     /// Folder for comparison.json and comparison.rrd (created if missing).
     #[arg(long)]
     pub out_dir: Option<PathBuf>,
@@ -55,7 +56,7 @@ pub struct CompareArgs {
 /// Runs `twin compare`: the table on stdout, the report and recording into the folder.
 pub fn run(args: &CompareArgs, registry: &Registry) -> Result<ExitCode, Failure> {
     let overrides = Overrides {
-        set: args.set.clone(),
+        set: args.values.set.clone(),
         ..Overrides::default()
     };
     let builder = Scenario::open(&args.scenario)?.overrides(&overrides)?;

@@ -1,6 +1,7 @@
 //! `twin fmu`: a scenario packaged as an FMI 2.0 co-simulation FMU.
 
 use crate::failure::Failure;
+use crate::flags::SetFlag;
 use framework::Registry;
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -8,12 +9,12 @@ use twin::{OutputFile, Overrides, Scenario};
 
 /// `twin fmu` arguments.
 #[derive(Debug, Clone, clap::Args)]
+#[command(mut_arg("set", |arg| arg.help("Override a scenario value (as `twin run --set`); the FMU carries the scenario as set")))]
 pub struct FmuArgs {
     /// A built-in scenario name or a scenario .toml file.
     pub scenario: String,
-    /// Override a scenario value (as `twin run --set`); the FMU carries the scenario as set.
-    #[arg(long = "set", value_name = "KEY=VALUE")]
-    pub set: Vec<String>,
+    #[command(flatten)]
+    pub values: SetFlag,
     /// Embed this controller instead of the scenario's (its parameters start from defaults).
     #[arg(long, value_name = "NAME", conflicts_with = "no_controller")]
     pub controller: Option<String>,
@@ -34,7 +35,7 @@ pub struct FmuArgs {
 pub fn run(args: &FmuArgs, registry: &Registry) -> Result<ExitCode, Failure> {
     let overrides = Overrides {
         controller: args.controller.clone(),
-        set: args.set.clone(),
+        set: args.values.set.clone(),
         ..Overrides::default()
     };
     let loaded = Scenario::open(&args.scenario)?

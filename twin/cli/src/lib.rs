@@ -12,6 +12,7 @@ pub mod compare;
 pub mod data_flags;
 mod engine_option;
 pub mod failure;
+pub mod flags;
 mod fit_figures;
 mod fit_options;
 mod fit_tables;

@@ -1,15 +1,16 @@
 //! `twin linearize`: a scenario's plant linearised at an operating point, into linear.json.
 
-use crate::engine_option::engine_override;
-use crate::engine_option::parse_engine;
 use crate::failure::Failure;
+use crate::flags::{EngineFlag, SetFlag};
 use framework::Registry;
 use std::path::PathBuf;
 use std::process::ExitCode;
-use twin::{Engine, OutputFile, Overrides, Scenario, Twin};
+use twin::{OutputFile, Overrides, Scenario, Twin};
 
 /// `twin linearize` arguments.
 #[derive(Debug, Clone, clap::Args)]
+#[command(mut_arg("set", |arg| arg.help("Override a scenario value (as `twin run --set`)")))]
+#[command(mut_arg("engine", |arg| arg.help("The engine that runs to the operating time (as `twin run --engine`); the linear model is always the exact engine's equations of motion")))]
 pub struct LinearizeArgs {
     /// A built-in scenario name or a scenario .toml file.
     pub scenario: String,
@@ -17,13 +18,10 @@ pub struct LinearizeArgs {
     /// held there (0: the initial state).
     #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
     pub at: f64,
-    /// Override a scenario value (as `twin run --set`).
-    #[arg(long = "set", value_name = "KEY=VALUE")]
-    pub set: Vec<String>,
-    /// The engine that runs to the operating time (as `twin run --engine`); the linear model is
-    /// always the exact engine's equations of motion.
-    #[arg(long, value_name = "exact|rapier", value_parser = parse_engine)]
-    pub engine: Option<Engine>,
+    #[command(flatten)]
+    pub values: SetFlag,
+    #[command(flatten)]
+    pub solver: EngineFlag,
     /// Folder for linear.json (created if missing).
     #[arg(long, required = true)]
     pub out_dir: PathBuf,
@@ -33,7 +31,7 @@ pub struct LinearizeArgs {
 /// The folder is made and its file opened before the run, so an unwritable one fails first.
 pub fn run(args: &LinearizeArgs, registry: &Registry) -> Result<ExitCode, Failure> {
     let overrides = Overrides {
-        set: [engine_override(args.engine), args.set.clone()].concat(),
+        set: args.solver.before(&args.values),
         ..Overrides::default()
     };
     let loaded = Scenario::open(&args.scenario)?

@@ -27,10 +27,12 @@ fn section(command: &Command, text: &mut String) {
         let _ = writeln!(text, "{}\n", sentence(&about.to_string()));
     }
     let _ = writeln!(text, "```text\n{}\n```\n", usage.trim_end());
-    let (positionals, options): (Vec<&Arg>, Vec<&Arg>) = command
+    // In the order `--help` shows them: a flag a command rewrites (`mut_arg`) keeps its place.
+    let (positionals, mut options): (Vec<&Arg>, Vec<&Arg>) = command
         .get_arguments()
         .filter(|arg| !arg.is_hide_set() && !is_help(arg))
         .partition(|arg| arg.is_positional());
+    options.sort_by_key(|arg| arg.get_display_order());
     for (title, args) in [("Arguments", positionals), ("Options", options)] {
         if !args.is_empty() {
             let _ = writeln!(text, "{title}:\n");

@@ -1,18 +1,14 @@
 //! `twin run`: one scenario run headless into an .rrd recording, with its summary and, when
 //! asked, its commands and signals as a CSV or Parquet data file.
 
-use crate::flags::{DurationFlag, EngineFlag, OutputFlags, SetFlag};
-use crate::engine_option::engine_override;
-use crate::engine_option::parse_engine;
 use crate::failure::{Failure, EXIT_DIVERGED};
+use crate::flags::{DurationFlag, EngineFlag, OutputFlags, SetFlag};
 use crate::signals::stop_on_signals;
 use framework::Registry;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use twin::data::RunTable;
-use twin::{
-    same_file, summary, Engine, LiveViewer, OutputFile, Overrides, RunSummary, Scenario, Twin,
-};
+use twin::{same_file, summary, LiveViewer, OutputFile, Overrides, RunSummary, Scenario, Twin};
 
 /// `twin run` arguments.
 #[derive(Debug, Clone, clap::Args)]
@@ -51,18 +47,20 @@ pub fn run(args: &RunArgs, registry: &Registry) -> Result<ExitCode, Failure> {
     let overrides = Overrides {
         controller: args.controller.clone(),
         duration: args.length.duration,
-        set: [engine_override(args.solver.engine), args.values.set.clone()].concat(),
+        set: args.solver.before(&args.values),
     };
     let loaded = Scenario::open(&args.scenario)?
         .overrides(&overrides)?
         .build(registry)?;
     let out = args
+        .outputs
         .out
         .clone()
         .unwrap_or_else(|| PathBuf::from(format!("{}.rrd", loaded.scenario.name)));
     check_outputs(args, &out)?;
     // Created now, so that an unwritable summary path fails before the run, not after it.
     let summary_file = args
+        .outputs
         .summary
         .as_deref()
         .map(OutputFile::create)

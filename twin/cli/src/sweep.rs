@@ -1,18 +1,18 @@
 //! `twin sweep`: a study run from the command line, and `twin sweep merge` joining its shards.
 
-use crate::engine_option::engine_override;
-use crate::engine_option::parse_engine;
 use crate::failure::Failure;
+use crate::flags::{EngineFlag, SetFlag};
 use crate::signals::stop_on_signals;
 use crate::study::{self, RecordMode, Shard, Spec, Study, StudyOptions};
 use framework::Registry;
 use std::path::PathBuf;
 use std::process::ExitCode;
-use twin::Engine;
 
 /// `twin sweep` arguments: a study, or the `merge` subcommand.
 #[derive(Debug, Clone, clap::Args)]
 #[command(args_conflicts_with_subcommands = true, subcommand_negates_reqs = true)]
+#[command(mut_arg("set", |arg| arg.help("Set a scenario value for every run (as `twin run --set`), before the axes")))]
+#[command(mut_arg("engine", |arg| arg.help("The engine of every run (as `twin run --engine`)")))]
 pub struct SweepArgs {
     /// `twin sweep merge`, instead of running a study.
     #[command(subcommand)]
@@ -20,12 +20,10 @@ pub struct SweepArgs {
     /// A built-in scenario name or a scenario .toml file.
     #[arg(required = true)]
     pub scenario: Option<String>,
-    /// Set a scenario value for every run (as `twin run --set`), before the axes.
-    #[arg(long = "set", value_name = "KEY=VALUE")]
-    pub set: Vec<String>,
-    /// The engine of every run (as `twin run --engine`).
-    #[arg(long, value_name = "exact|rapier", value_parser = parse_engine)]
-    pub engine: Option<Engine>,
+    #[command(flatten)]
+    pub values: SetFlag,
+    #[command(flatten)]
+    pub solver: EngineFlag,
     /// A grid axis: KEY=lin(a,b,n) | log(a,b,n) | [v1, v2, …] | v1,v2,… (`controller=osmc,smc2`
     /// switches controllers); grid axes span a Cartesian product, the last varying fastest.
     #[arg(long = "grid", value_name = "KEY=VALUES")]
@@ -101,7 +99,7 @@ pub fn run(args: &SweepArgs, registry: &Registry) -> Result<ExitCode, Failure> {
         .map(|s| Shard::parse(s, args.shard_count))
         .transpose()
         .map_err(Failure::usage)?;
-    let set = [engine_override(args.engine), args.set.clone()].concat();
+    let set = args.solver.before(&args.values);
     let study = Study::new(
         &scenario,
         &set,

@@ -5,6 +5,7 @@ pub mod lathe;
 
 pub mod milling;
 
+use crate::flags::SetFlag;
 use controllers::lathe::output_feedback_design::DesignError;
 use models::lathe::LatheError;
 use std::path::{Path, PathBuf};
@@ -55,6 +56,7 @@ pub(crate) fn write_text(path: &Path, text: &str) -> Result<(), AnalysisError> {
 
 /// `twin analyze` arguments.
 #[derive(Debug, Clone, clap::Args)]
+#[command(mut_arg("set", |arg| arg.help("milling: set a scenario value (as `twin run --set`)")))]
 pub struct AnalyzeArgs {
     /// What to analyse: `lathe` (the parallel lathe's power loop, Table 1 of the paper) or
     /// `milling` (stability lobes of a milling scenario, checked by time-domain runs).
@@ -62,9 +64,8 @@ pub struct AnalyzeArgs {
     /// milling: the scenario (built-in name or .toml file) whose tool and cut are analysed.
     #[arg(default_value = "milling-constant-15000")]
     pub scenario: String,
-    /// milling: set a scenario value (as `twin run --set`).
-    #[arg(long = "set", value_name = "KEY=VALUE")]
-    pub set: Vec<String>,
+    #[command(flatten)]
+    pub values: SetFlag,
     /// milling: the diagram's speed range, rpm.
     #[arg(long, num_args = 2, value_names = ["FROM", "TO"], default_values_t = [10_000.0, 25_000.0])]
     pub rpm: Vec<f64>,
@@ -202,7 +203,7 @@ fn run_milling(
     }
     let mut scenario =
         twin::Scenario::open(&args.scenario).map_err(|e| argument("scenario", e.to_string()))?;
-    for assignment in &args.set {
+    for assignment in &args.values.set {
         scenario = scenario
             .assign(assignment)
             .map_err(|e| argument("--set", e.to_string()))?;

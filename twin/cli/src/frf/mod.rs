@@ -14,6 +14,7 @@ pub mod estimate;
 pub mod file;
 pub mod fit;
 
+use crate::flags::SetFlag;
 use estimate::{h1_estimate, Complex, FrfLine, Segments, Window};
 use fit::{fit_mode, ModalFit};
 use std::f64::consts::TAU;
@@ -51,6 +52,7 @@ pub enum Excitation {
 
 /// `twin frf` arguments.
 #[derive(Debug, Clone, clap::Args)]
+#[command(mut_arg("set", |arg| arg.help("Set a scenario value (as `twin run --set`), after `--controller`")))]
 pub struct FrfArgs {
     /// A built-in scenario name or a scenario .toml file.
     pub scenario: String,
@@ -84,9 +86,8 @@ pub struct FrfArgs {
     /// describes it).
     #[arg(long)]
     pub controller: Option<String>,
-    /// Set a scenario value (as `twin run --set`), after `--controller`.
-    #[arg(long = "set", value_name = "KEY=VALUE")]
-    pub set: Vec<String>,
+    #[command(flatten)]
+    pub values: SetFlag,
     /// Folder for frf.csv and frf.rrd.
     #[arg(long, default_value = "frf")]
     pub out_dir: PathBuf,
@@ -321,7 +322,7 @@ fn load(
     if let Some(name) = &args.controller {
         scenario = scenario.controller(name);
     }
-    for assignment in &args.set {
+    for assignment in &args.values.set {
         scenario = scenario
             .assign(assignment)
             .map_err(|e| argument("--set", e))?;

@@ -10,7 +10,7 @@ mod milling;
 mod platform;
 mod whitworth;
 
-use crate::engine_option::parse_engine;
+use crate::flags::EngineFlag;
 use framework::Registry;
 use serde::Serialize;
 use std::fmt::Write as _;
@@ -123,21 +123,21 @@ fn builtin(name: &str, engine: Option<Engine>) -> Result<ScenarioBuilder, Scenar
 
 /// `twin reproduce` arguments.
 #[derive(Debug, Clone, clap::Args)]
+#[command(mut_arg("engine", |arg| arg.help("The engine of every run (as `twin run --engine`); default: each scenario's own")))]
 pub struct ReproduceArgs {
     /// The paper (see `twin list`).
     pub paper: String,
     /// Folder for the recordings and report.json.
     #[arg(long, default_value = "reproduce")]
     pub out_dir: PathBuf,
-    /// The engine of every run (as `twin run --engine`); default: each scenario's own.
-    #[arg(long, value_name = "exact|rapier", value_parser = parse_engine)]
-    pub engine: Option<Engine>,
+    #[command(flatten)]
+    pub solver: EngineFlag,
 }
 
 /// Runs `twin reproduce`: the paper's runs and report, and for the terminal its claims as a
 /// table and where the files went.
 pub fn run(args: &ReproduceArgs, registry: &Registry) -> Result<String, ReproduceError> {
-    let report = reproduce(&args.paper, &args.out_dir, registry, args.engine)?;
+    let report = reproduce(&args.paper, &args.out_dir, registry, args.solver.engine)?;
     let folder = args.out_dir.display();
     Ok(format!(
         "{}recordings and report.json: {folder}\n",

@@ -15,6 +15,7 @@ pub use crate::opcua::{Security, SecurityError, PASSWORD_ENV};
 pub use error::ServeError;
 
 use crate::failure::Failure;
+use crate::flags::{DurationFlag, OutputFlags, SetFlag};
 use crate::signals::stop_on_signals;
 use address_space::Commanding;
 use controller::{ClientCommands, ScenarioController};
@@ -59,12 +60,10 @@ pub struct ServeArgs {
     /// environment variable; never on the command line).
     #[arg(long, value_name = "FILE")]
     pub password_file: Option<PathBuf>,
-    /// Override a scenario value: a dotted key into the TOML.
-    #[arg(long = "set", value_name = "KEY=VALUE")]
-    pub set: Vec<String>,
-    /// Simulated time, s.
-    #[arg(long, allow_hyphen_values = true)]
-    pub duration: Option<f64>,
+    #[command(flatten)]
+    pub values: SetFlag,
+    #[command(flatten)]
+    pub length: DurationFlag,
     /// Real-time factor: simulated seconds per wall-clock second.
     #[arg(long, default_value_t = 1.0, conflicts_with = "lockstep")]
     pub rate: f64,
@@ -77,16 +76,8 @@ pub struct ServeArgs {
     /// instead of the efforts, which it reads.
     #[arg(long)]
     pub with_controller: bool,
-    /// Recording to write (default: `<scenario>.rrd` in the current folder).
-    #[arg(long)]
-    pub out: Option<PathBuf>,
-    /// Also write the summary as JSON to this file.
-    #[arg(long)]
-    pub summary: Option<PathBuf>,
-    /// Also stream the run to a Rerun viewer listening at this URL
-    /// (e.g. rerun+http://127.0.0.1:9876/proxy).
-    #[arg(long)]
-    pub connect: Option<String>,
+    #[command(flatten)]
+    pub outputs: OutputFlags,
 }
 
 /// Runs `twin serve`: serves the run until it ends, then prints its summary as `twin run` does.
@@ -106,17 +97,18 @@ pub fn serve(args: &ServeArgs, registry: &Registry) -> Result<ExitCode, Failure>
     .map_err(|e| Failure::usage(e.to_string()))?;
     let overrides = Overrides {
         controller: None,
-        duration: args.duration,
-        set: args.set.clone(),
+        duration: args.length.duration,
+        set: args.values.set.clone(),
     };
     let loaded = Scenario::open(&args.scenario)?
         .overrides(&overrides)?
         .build(registry)?;
     let out = args
+        .outputs
         .out
         .clone()
         .unwrap_or_else(|| PathBuf::from(format!("{}.rrd", loaded.scenario.name)));
-    let summary_file = crate::run::summary_file(args.summary.as_deref(), &out)?;
+    let summary_file = crate::run::summary_file(args.outputs.summary.as_deref(), &out)?;
     let machine = loaded.scenario.machine.clone();
     // The period the run updates its controller at: whole physics steps.
     let control_period = loaded.scenario.control_every() as f64 * loaded.scenario.dt;
@@ -128,7 +120,7 @@ pub fn serve(args: &ServeArgs, registry: &Registry) -> Result<ExitCode, Failure>
     let shared = Arc::new(Shared::default());
     let (twin, commanding) = served_twin(loaded, &shared, args, registry)?;
     let mut twin = twin.with_stop_flag(stop.clone());
-    if let Some(url) = &args.connect {
+    if let Some(url) = &args.outputs.connect {
         twin = twin.with_live_viewer(LiveViewer::Connect(url.clone()));
     }
     let pace = if args.lockstep {

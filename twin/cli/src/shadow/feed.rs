@@ -391,7 +391,8 @@ fn stopping(stop: &StopFlag, shadow: &Shadow, args: &ShadowArgs, outcome: &mut O
         outcome.interrupted = Some(signal);
         return true;
     }
-    args.duration
+    args.length
+        .duration
         .is_some_and(|d| shadow.newest().is_some_and(|t| t >= d))
 }
 

@@ -9,6 +9,7 @@ mod report;
 
 use crate::data_flags::DataFlags;
 use crate::failure::Failure;
+use crate::flags::{DurationFlag, OutputFlags, SetFlag};
 use crate::opcua::Security;
 use crate::signals::stop_on_signals;
 use feed::Feed;
@@ -20,6 +21,9 @@ use twin::{LiveViewer, Overrides, Scenario};
 
 /// `twin shadow` arguments.
 #[derive(Debug, Clone, clap::Args)]
+#[command(mut_arg("duration", |arg| arg.help("Stop after this many seconds of the machine's time (default: the data's end, or a signal)").allow_hyphen_values(false)))]
+#[command(mut_arg("out", |arg| arg.help("Recording to write (default: `<scenario>-shadow.rrd`)")))]
+#[command(mut_arg("connect", |arg| arg.help("Also stream to a Rerun viewer at this URL")))]
 pub struct ShadowArgs {
     /// A built-in scenario name or a scenario .toml file (a calibrated one, best).
     pub scenario: String,
@@ -83,25 +87,15 @@ pub struct ShadowArgs {
     /// reconnection attempt.
     #[arg(long, default_value_t = 5.0)]
     pub connect_timeout: f64,
-    /// Stop after this many seconds of the machine's time (default: the data's end, or a
-    /// signal).
-    #[arg(long)]
-    pub duration: Option<f64>,
+    #[command(flatten)]
+    pub length: DurationFlag,
     /// Publish the estimate, residuals and alarms on an OPC UA server here (loopback).
     #[arg(long)]
     pub publish: Option<String>,
-    /// Override a scenario value: a dotted key into the TOML.
-    #[arg(long = "set", value_name = "KEY=VALUE")]
-    pub set: Vec<String>,
-    /// Recording to write (default: `<scenario>-shadow.rrd`).
-    #[arg(long)]
-    pub out: Option<PathBuf>,
-    /// Also write the summary as JSON to this file.
-    #[arg(long)]
-    pub summary: Option<PathBuf>,
-    /// Also stream to a Rerun viewer at this URL.
-    #[arg(long)]
-    pub connect: Option<String>,
+    #[command(flatten)]
+    pub values: SetFlag,
+    #[command(flatten)]
+    pub outputs: OutputFlags,
 }
 
 /// Runs `twin shadow` until the data end, the --duration is reached or a signal stops it.
@@ -110,7 +104,7 @@ pub fn shadow(args: &ShadowArgs, registry: &Registry) -> Result<ExitCode, Failur
     let overrides = Overrides {
         controller: None,
         duration: None,
-        set: args.set.clone(),
+        set: args.values.set.clone(),
     };
     let builder = Scenario::open(&args.scenario)?.overrides(&overrides)?;
     let mut feed = Feed::open(args)?;
@@ -135,11 +129,12 @@ pub fn shadow(args: &ShadowArgs, registry: &Registry) -> Result<ExitCode, Failur
     let mut shadow = Shadow::new(builder.build(registry)?, &options)?;
     feed.bind(&shadow, args)?;
     let out = args
+        .outputs
         .out
         .clone()
         .unwrap_or_else(|| PathBuf::from(format!("{}-shadow.rrd", shadow.scenario_name())));
-    let summary_file = crate::run::summary_file(args.summary.as_deref(), &out)?;
-    let live = args.connect.clone().map(LiveViewer::Connect);
+    let summary_file = crate::run::summary_file(args.outputs.summary.as_deref(), &out)?;
+    let live = args.outputs.connect.clone().map(LiveViewer::Connect);
     let id = format!("{}-shadow-{}", shadow.scenario_name(), feed.digest());
     // The server is bound before the recording is made: a refused --publish leaves no file.
     let publisher = publish::Publisher::start(args.publish.as_deref(), &shadow)?;
@@ -197,12 +192,16 @@ fn check_numbers(args: &ShadowArgs) -> Result<(), Failure> {
             args.rate
         )));
     }
-    if let Some(duration) = args.duration.filter(|d| !(d.is_finite() && *d > 0.0)) {
+    if let Some(duration) = args
+        .length
+        .duration
+        .filter(|d| !(d.is_finite() && *d > 0.0))
+    {
         return Err(Failure::usage(format!(
             "--duration {duration}: must be a positive number of seconds"
         )));
     }
-    if let Some(duration) = args.duration.filter(|d| *d <= args.learn) {
+    if let Some(duration) = args.length.duration.filter(|d| *d <= args.learn) {
         return Err(Failure::usage(format!(
             "--duration {duration}: no longer than --learn {} s (taken as healthy to set the \
              tests): nothing would be tested",
