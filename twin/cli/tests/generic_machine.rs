@@ -738,3 +738,57 @@ fn dc_servos_drive_the_double_pendulum_to_its_targets() {
     let stderr = String::from_utf8_lossy(&twin(&args, &dir).stderr).into_owned();
     assert!(stderr.contains("the generic machine's"), "{stderr}");
 }
+
+#[test]
+fn a_force_table_in_time_presses_as_the_constant_force_it_holds() {
+    let dir = scratch("generic-machine", "force-table");
+    std::fs::write(
+        dir.join("press.csv"),
+        "time [s],fx [N],fy [kN]\n0,0,0.3\n10,0,0.3\n",
+    )
+    .unwrap();
+    let scenario = dir.join("press.toml");
+    let text = std::fs::read_to_string(scenario_of("slider-crank")).unwrap();
+    let urdf = urdf_of("slider-crank", "slider_crank.urdf");
+    let text = text
+        .replace("urdf = \"slider_crank.urdf\"", &format!("urdf = {urdf:?}"))
+        .replace("force = [0.0, 300.0]", "force_table = \"press.csv\"");
+    assert!(text.contains("force_table"));
+    std::fs::write(&scenario, text).unwrap();
+    let constant = scenario_of("slider-crank");
+    for (name, path) in [
+        ("constant", constant.as_str()),
+        ("table", scenario.to_str().unwrap()),
+    ] {
+        let csv = format!("{name}.csv");
+        let run = [
+            "run",
+            path,
+            "--duration",
+            "1",
+            "--csv",
+            &csv,
+            "--out",
+            "x.rrd",
+        ];
+        ok(&twin(&run, &dir));
+    }
+    // 0.3 kN, converted to 300 N once, gives the same run to the last bit.
+    let (a, b) = (
+        std::fs::read(dir.join("constant.csv")).unwrap(),
+        std::fs::read(dir.join("table.csv")).unwrap(),
+    );
+    assert!(a == b, "the runs differ");
+    // A table without its unit is refused, naming the entry, the file and the column.
+    std::fs::write(dir.join("press.csv"), "time [s],fx [N],fy\n0,0,300\n").unwrap();
+    let args = ["run", scenario.to_str().unwrap(), "--out", "y.rrd"];
+    let output = twin(&args, &dir);
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert_eq!(output.status.code(), Some(1), "{stderr}");
+    assert!(stderr.contains("points.ram_face.force_table"), "{stderr}");
+    assert!(
+        stderr.contains("press.csv") && stderr.contains("\"fy [N]\""),
+        "{stderr}"
+    );
+    assert!(!dir.join("y.rrd").exists());
+}

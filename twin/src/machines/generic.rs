@@ -1,11 +1,13 @@
 //! The generic machine: any planar mechanism the twin accepts, with nothing of its own but what
 //! the scenario names. Its signals are the joints' (as every machine's) and the task-space
 //! points of `[points.<name>]`: `<name>.x`, `<name>.y` and their rates `<name>.vx`, `<name>.vy`.
-//! A point may carry a load: a constant force, or a spring-damper to a fixed anchor (a contact
-//! with a workpiece, a buffer). Its actuators are the URDF's driven joints, ideal unless the
+//! A point may carry a load: a constant force, a force in time from a table
+//! ([`super::force_table`]), or a spring-damper to a fixed anchor (a contact with a workpiece, a
+//! buffer). Its actuators are the URDF's driven joints, ideal unless the
 //! scenario says otherwise ([`super::actuators`]).
 
 use super::actuators::ActuatorSpecs;
+use super::force_table::ForceTable;
 use super::joint_drives::JointDrives;
 use super::machine::effort_unit;
 use super::{link, Machine, MachineError};
@@ -32,6 +34,13 @@ pub struct PointSpec {
     /// A constant force on the point, world frame, N.
     #[serde(default)]
     pub force: Option<[f64; 2]>,
+    /// A force in time from a table (`time`, `fx`, `fy`: [`ForceTable`]), world frame, added
+    /// to `force`; a file relative to the scenario's folder.
+    #[serde(default)]
+    pub force_table: Option<String>,
+    /// The table, read when the scenario is loaded.
+    #[serde(skip)]
+    pub force_samples: Option<ForceTable>,
     /// A spring-damper from the point to a fixed anchor.
     #[serde(default)]
     pub spring: Option<SpringSpec>,
@@ -92,6 +101,7 @@ struct Point {
     link: usize,
     at: [f64; 2],
     force: [f64; 2],
+    table: Option<ForceTable>,
     spring: Option<SpringSpec>,
 }
 
@@ -128,6 +138,7 @@ impl Generic {
                 link: link(GENERIC, mechanism, &spec.link)?,
                 at,
                 force: spec.force.unwrap_or([0.0; 2]),
+                table: table_of(name, spec)?,
                 spring: spec.spring,
             });
         }
@@ -146,6 +157,18 @@ impl Generic {
         let omega = state.link_angular_velocities[p.link];
         let (rx, ry) = (position[0] - pose.x, position[1] - pose.y);
         (position, [vx - omega * ry, vy + omega * rx])
+    }
+}
+
+/// The point's force table, read with the scenario.
+fn table_of(name: &str, spec: &PointSpec) -> Result<Option<ForceTable>, MachineError> {
+    match (&spec.force_table, &spec.force_samples) {
+        (None, _) => Ok(None),
+        (Some(_), Some(table)) => Ok(Some(table.clone())),
+        (Some(file), None) => Err(MachineError::Point {
+            key: format!("points.{name}.force_table"),
+            reason: format!("`{file}` was not read: load the scenario from its file"),
+        }),
     }
 }
 
@@ -247,12 +270,17 @@ impl Machine for Generic {
         self.drives.measure(state, &mut signals[points..]);
     }
 
-    fn loads(&mut self, _time: f64, state: &MechanismState, loads: &mut Vec<Load>) {
+    fn loads(&mut self, time: f64, state: &MechanismState, loads: &mut Vec<Load>) {
         for p in &self.points {
             let (point, velocity) = self.locate(p, state);
+            let mut force = p.force;
+            if let Some(table) = &p.table {
+                let [fx, fy] = table.at(time);
+                force = [force[0] + fx, force[1] + fy];
+            }
             let mut load = Load {
                 link: p.link,
-                force: p.force,
+                force,
                 point,
                 damping: NO_DAMPING,
                 stiffness: NO_STIFFNESS,
@@ -260,7 +288,7 @@ impl Machine for Generic {
             if let Some(spring) = p.spring {
                 spring_force(&spring, point, velocity, &mut load);
             }
-            if p.spring.is_some() || p.force != [0.0; 2] {
+            if p.spring.is_some() || p.table.is_some() || p.force != [0.0; 2] {
                 loads.push(load);
             }
         }

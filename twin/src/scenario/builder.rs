@@ -4,6 +4,7 @@
 use super::builtin::find_urdf;
 use super::{LoadedScenario, MetricSpec, Scenario, ScenarioError};
 use crate::files::read_text;
+use crate::machines::ForceTable;
 use crate::mechanism::Plane;
 use framework::{describe_toml_error, from_table, shortened};
 use framework::{parameter_message, ControllerError, Registry};
@@ -280,6 +281,7 @@ impl ScenarioBuilder {
         };
         let mut scenario: Scenario = from_table(&table).map_err(invalid)?;
         scenario.gravity = scenario.gravity_given.in_plane(&Plane::IDENTITY);
+        read_force_tables(&mut scenario, folder.as_deref()).map_err(invalid)?;
         scenario.validate().map_err(invalid)?;
         let spec = &scenario.controller;
         let controller = registry
@@ -490,4 +492,16 @@ fn controller_reason(error: &ControllerError) -> String {
         ),
         other => format!("controller: {other}"),
     }
+}
+
+/// Reads each point's `force_table`, named relative to the scenario's folder.
+fn read_force_tables(scenario: &mut Scenario, folder: Option<&Path>) -> Result<(), String> {
+    for (name, point) in &mut scenario.points {
+        if let Some(file) = &point.force_table {
+            let table = ForceTable::read(file, folder)
+                .map_err(|e| format!("points.{name}.force_table: {e}"))?;
+            point.force_samples = Some(table);
+        }
+    }
+    Ok(())
 }
