@@ -21,6 +21,7 @@
 mod bind;
 mod csv_file;
 mod error;
+mod file;
 mod measured;
 mod options;
 mod parquet_file;

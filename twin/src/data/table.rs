@@ -4,7 +4,7 @@
 use std::path::PathBuf;
 
 use super::csv_file;
-use super::measured::sha256_hex;
+use super::file::sha256_hex;
 use super::parquet_file;
 use super::{ColumnRole, DataColumn, DataError, PlantColumns, RunData};
 use crate::output::OutputFile;

@@ -1,7 +1,7 @@
 //! The data format's round trips (CSV, Parquet, a recording), a run's rows written when it is
 //! interrupted, and the unit conversions and resampling checked against hand values.
 
-use super::measured::sha256_hex;
+use super::file::sha256_hex;
 use super::*;
 use crate::run::{Simulator, StopFlag, Twin};
 use crate::scenario::Scenario;
