@@ -254,7 +254,7 @@ fn analyze_command_names_bad_requests() {
         duration: 5.0,
         out_dir: Some(dir.clone()),
         scenario: "milling-constant-15000".into(),
-        set: Vec::new(),
+        values: twin_cli::flags::SetFlag { set: Vec::new() },
         rpm: vec![10_000.0, 25_000.0],
         speeds: 151,
         max_depth: 3e-3,

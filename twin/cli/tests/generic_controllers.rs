@@ -107,7 +107,7 @@ fn a_replay_names_the_file_row_and_column_it_cannot_take() {
         (
             write(
                 "unit.csv",
-                &format!("time [s],effort.shoulder [N],effort.elbow [N·m]\n0,1,2\n0.001,1,2\n"),
+                "time [s],effort.shoulder [N],effort.elbow [N·m]\n0,1,2\n0.001,1,2\n",
             ),
             "column \"effort.shoulder [N]\"",
         ),
