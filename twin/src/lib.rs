@@ -45,8 +45,8 @@ pub use run::{
     TwinError,
 };
 pub use scenario::{
-    load as load_scenario, CalibrationSpec, FitSpec, Gravity, LoadedScenario, MetricKind, MetricSpec,
-    Overrides, Scenario, ScenarioBuilder, ScenarioError, ScenarioValue,
+    load as load_scenario, CalibrationSpec, FitSpec, Gravity, LoadedScenario, MetricKind,
+    MetricSpec, Overrides, Scenario, ScenarioBuilder, ScenarioError, ScenarioValue,
     BUILTIN as BUILTIN_SCENARIOS,
 };
 pub use sensors::Noise;
