@@ -7,7 +7,8 @@ use twin::calibration::{
     calibrate, compare, Calibration, CalibrationError, CalibrationOptions, FitParameter,
     StartStates,
 };
-use twin::data::{RunData, RunTable};
+use twin::data::RunData;
+use twin::RunTable;
 use twin::{Scenario, ScenarioBuilder, Twin};
 
 /// A folder of its own under the system's temporary folder, for one test's files.

@@ -41,8 +41,8 @@ pub use physics::{
 pub use recording::{LiveViewer, RecordingError};
 pub use run::{
     Divergence, FailureKind, Findings, Interruption, LinearizeError, Observer, ObserverError,
-    RunSummary, SetpointSource, SignalLayout, Simulator, StepError, StepView, StopFlag, Twin,
-    TwinError,
+    RunSummary, RunTable, SetpointSource, SignalLayout, Simulator, StepError, StepView, StopFlag,
+    Twin, TwinError,
 };
 pub use scenario::{
     load as load_scenario, CalibrationSpec, FitSpec, Gravity, LoadedScenario, MetricKind,

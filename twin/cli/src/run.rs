@@ -7,7 +7,7 @@ use crate::signals::stop_on_signals;
 use framework::Registry;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
-use twin::data::RunTable;
+use twin::RunTable;
 use twin::{same_file, summary, LiveViewer, OutputFile, Overrides, RunSummary, Scenario, Twin};
 
 /// `twin run` arguments.

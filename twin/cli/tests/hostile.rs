@@ -216,9 +216,9 @@ fn arrays_of_the_wrong_length_are_refused() {
             "run",
             "whitworth-crank-pi",
             "--set",
-            "gravity=[0, -9.81, 5]",
+            "gravity=[0, -9.81, 5, 1]",
         ],
-        &["`gravity`", "3 elements"],
+        &["`gravity`", "4 elements"],
     );
     run_fails(
         "gaps",

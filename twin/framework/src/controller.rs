@@ -1,29 +1,11 @@
 //! The controller interface: measurement in, joint efforts out.
 
 use crate::event::Event;
-use crate::plant_model::{Dynamics, ScenarioFiles};
+use crate::plant_model::{Dynamics, EffortKind, ScenarioFiles};
 use crate::signal::SignalSpec;
 use std::fmt;
 use std::sync::Arc;
 use thiserror::Error;
-
-/// What an actuated joint takes as effort.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum EffortKind {
-    /// N·m on a revolute or continuous joint.
-    Torque,
-    /// N on a prismatic joint.
-    Force,
-}
-
-impl fmt::Display for EffortKind {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(match self {
-            Self::Torque => "torque (a revolute joint)",
-            Self::Force => "force (a prismatic joint)",
-        })
-    }
-}
 
 /// One actuated joint as a controller sees it.
 #[derive(Debug, Clone, PartialEq)]

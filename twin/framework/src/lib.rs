@@ -20,13 +20,12 @@ mod registry;
 mod signal;
 
 pub use controller::{
-    parameter_message, Actuator, Controller, ControllerError, EffortKind, Measurement,
-    PlantInterface,
+    parameter_message, Actuator, Controller, ControllerError, Measurement, PlantInterface,
 };
 pub use event::{Event, EventKind, EventLevel};
 pub use params::{
     describe_toml_error, deserialize_table, from_table, parse_params, shortened, TableError,
 };
-pub use plant_model::{Coordinate, Dynamics, LoggedEfforts, ScenarioFiles};
+pub use plant_model::{Coordinate, Dynamics, EffortKind, LoggedEfforts, ScenarioFiles};
 pub use registry::{Constructor, Entry, Registry, ANY_MACHINE};
 pub use signal::{signal_names, SignalSpec, Unit};

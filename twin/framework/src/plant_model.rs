@@ -3,7 +3,25 @@
 //! parameters name ([`ScenarioFiles`], read at the engine's edge). A controller bound to a real
 //! machine, or in a unit test, may be lent neither.
 
-use crate::controller::EffortKind;
+use std::fmt;
+
+/// What an actuated joint takes as effort.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum EffortKind {
+    /// N·m on a revolute or continuous joint.
+    Torque,
+    /// N on a prismatic joint.
+    Force,
+}
+
+impl fmt::Display for EffortKind {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            Self::Torque => "torque (a revolute joint)",
+            Self::Force => "force (a prismatic joint)",
+        })
+    }
+}
 
 /// One independent coordinate of the mechanism: a joint whose position and velocity are state.
 #[derive(Debug, Clone, PartialEq)]

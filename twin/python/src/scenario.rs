@@ -12,7 +12,7 @@ use pyo3::types::{PyBool, PyDict, PyFloat, PyList, PyString, PyTuple};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Arc;
-use twin::data::RunTable;
+use twin::RunTable;
 use twin::{LoadedScenario, Observer, ObserverError, ScenarioBuilder, StepView};
 
 /// A scenario: a built-in name (see `twin.scenarios()`) or a scenario TOML file, with changes.

@@ -312,7 +312,7 @@ fn cell_text(text: &str) -> String {
 
 /// The table as CSV bytes; refuses columns of another length than `time`, and names with a
 /// line break.
-pub(super) fn to_bytes(data: &RunData) -> Result<Vec<u8>, String> {
+pub(crate) fn to_bytes(data: &RunData) -> Result<Vec<u8>, String> {
     use std::fmt::Write;
     check_shape(data)?;
     let mut headers = vec!["time [s]".to_owned()];
@@ -336,7 +336,7 @@ pub(super) fn to_bytes(data: &RunData) -> Result<Vec<u8>, String> {
 }
 
 /// Refuses a table whose columns do not each hold one value per time.
-pub(super) fn check_shape(data: &RunData) -> Result<(), String> {
+pub(crate) fn check_shape(data: &RunData) -> Result<(), String> {
     match data
         .columns
         .iter()

@@ -56,7 +56,7 @@ impl RunData {
     }
 
     /// A column's header as written: `name [unit]`, or `name` without a unit.
-    pub(super) fn header(column: &DataColumn) -> String {
+    pub(crate) fn header(column: &DataColumn) -> String {
         header(&column.name, &column.unit)
     }
 }

@@ -15,33 +15,27 @@
 //! not know are left out, with a note ([`left_out_note`]), or refused when reading is strict.
 //! Each refusal is one line naming the file and the row (counted as a spreadsheet shows the
 //! file: its first line is row 1) or the column, and what to change.
-//! Writing ([`RunData::write_csv`], [`RunData::write_parquet`], [`RunTable`]) is atomic: a
+//! Writing ([`RunData::write_csv`], [`RunData::write_parquet`], and a run's own table, `twin::RunTable`) is atomic: a
 //! temporary file beside the target, renamed onto it once whole.
 
 mod bind;
-mod csv_file;
+pub(crate) mod csv_file;
 mod error;
 mod file;
 mod measured;
 mod options;
-mod parquet_file;
+pub(crate) mod parquet_file;
 mod plant_columns;
 mod reading;
 mod recorded;
-mod table;
 mod trace;
-mod units;
+pub(crate) mod units;
 
 pub use crate::recording::ColumnRole;
 pub use error::DataError;
+pub(crate) use file::sha256_hex;
 pub use measured::{DataColumn, RunData, UnreadColumn};
 pub use options::{parse_renames, Delimiter, ReadOptions};
 pub use plant_columns::PlantColumns;
 pub use reading::MAX_DATA_BYTES;
-pub use table::RunTable;
 pub use trace::{left_out_note, DataRate, Trace};
-
-#[cfg(test)]
-mod refusal_tests;
-#[cfg(test)]
-mod tests;

@@ -79,7 +79,7 @@ fn append(column: &mut Vec<f64>, array: &dyn Array) -> Result<(), (Option<usize>
 }
 
 /// The table as Parquet bytes: `time [s]` and every column as non-null Float64.
-pub(super) fn to_bytes(data: &RunData) -> Result<Vec<u8>, String> {
+pub(crate) fn to_bytes(data: &RunData) -> Result<Vec<u8>, String> {
     check_shape(data)?;
     let mut names = vec!["time [s]".to_owned()];
     names.extend(data.columns.iter().map(RunData::header));

@@ -3,7 +3,6 @@
 
 use super::units;
 use crate::recording::ColumnRole;
-use crate::run::{SignalLayout, Simulator};
 
 /// What one scenario's twin reads and writes: its actuators and plant signals with their SI
 /// units, from a [`Simulator`] or a run's [`SignalLayout`].
@@ -17,35 +16,6 @@ pub struct PlantColumns {
 }
 
 impl PlantColumns {
-    /// What `simulator`'s plant reads and writes.
-    pub fn of_simulator(simulator: &Simulator) -> Self {
-        let actuators = simulator.actuators().iter().map(|a| a.joint.clone());
-        Self {
-            actuators: actuators
-                .zip(simulator.command_units())
-                .map(|(joint, unit)| (joint, unit.to_owned()))
-                .collect(),
-            signals: simulator
-                .signal_specs()
-                .iter()
-                .map(|s| (s.name.clone(), s.unit.si_label().to_owned()))
-                .collect(),
-        }
-    }
-
-    /// What a run of `layout` reads and writes.
-    pub fn of_layout(layout: &SignalLayout) -> Self {
-        let efforts = layout.specs.efforts.iter();
-        Self {
-            actuators: (layout.actuators.iter().zip(efforts))
-                .map(|(joint, [commanded, _])| (joint.clone(), commanded.si_label().to_owned()))
-                .collect(),
-            signals: (layout.signals.iter().zip(&layout.specs.signals))
-                .map(|(name, spec)| (name.clone(), spec.unit.si_label().to_owned()))
-                .collect(),
-        }
-    }
-
     /// What the column `name` is to this plant: its role and its index among the actuators
     /// (a command) or the signals (a measured or true signal); `None` for a name it lacks.
     pub fn role_of(&self, name: &str) -> Option<(ColumnRole, usize)> {

@@ -70,7 +70,7 @@ const UNITS: &[(&str, &str, f64)] = &[
 
 /// The SI value of one `unit` for a column of `name`, whose values are in the SI unit `si`; the
 /// refusal names the column's signal and the units that fit it.
-pub(super) fn factor(unit: &str, name: &str, si: &str) -> Result<f64, String> {
+pub(crate) fn factor(unit: &str, name: &str, si: &str) -> Result<f64, String> {
     let unit = unit.trim();
     match UNITS.iter().find(|(spelling, _, _)| *spelling == unit) {
         Some(&(_, to, factor)) if to == si => Ok(factor),

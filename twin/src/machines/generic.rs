@@ -34,7 +34,7 @@ pub struct PointSpec {
     /// A constant force on the point, world frame, N.
     #[serde(default)]
     pub force: Option<[f64; 2]>,
-    /// A force in time from a table (`time`, `fx`, `fy`: [`ForceTable`]), world frame, added
+    /// A force in time from a table (CSV or Parquet: `time [s]`, `fx [N]`, `fy [N]`), world frame, added
     /// to `force`; a file relative to the scenario's folder.
     #[serde(default)]
     pub force_table: Option<String>,
@@ -48,7 +48,7 @@ pub struct PointSpec {
 
 /// Where a point is on its link.
 #[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
-#[serde(untagged)]
+#[serde(try_from = "Vec<f64>")]
 pub enum PointAt {
     /// [x, y] in the link's frame on the plane, m.
     InPlane([f64; 2]),
@@ -59,6 +59,21 @@ pub enum PointAt {
 impl Default for PointAt {
     fn default() -> Self {
         PointAt::InPlane([0.0; 2])
+    }
+}
+
+impl TryFrom<Vec<f64>> for PointAt {
+    type Error = String;
+
+    fn try_from(values: Vec<f64>) -> Result<Self, String> {
+        match values.as_slice() {
+            &[x, y] => Ok(PointAt::InPlane([x, y])),
+            &[x, y, z] => Ok(PointAt::InUrdf([x, y, z])),
+            other => Err(format!(
+                "{} elements: give 2 (in the link's frame on the plane, m) or 3 (in the URDF's link frame)",
+                other.len()
+            )),
+        }
     }
 }
 

@@ -14,6 +14,7 @@ mod simulator;
 mod spectra;
 mod stats;
 mod summary;
+mod table;
 mod twin;
 
 pub use layout::SignalLayout;
@@ -24,5 +25,11 @@ pub use simulator::{Simulator, StepError};
 pub use summary::{
     to_json, to_table, write_json, Divergence, FailureKind, Interruption, RunSummary,
 };
+pub use table::RunTable;
 pub(crate) use twin::{build_machine, effort_kind, framed, observer_error};
 pub use twin::{SetpointSource, StopFlag, Twin, TwinError};
+
+#[cfg(test)]
+mod data_refusal_tests;
+#[cfg(test)]
+mod data_tests;

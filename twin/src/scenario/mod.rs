@@ -293,13 +293,28 @@ fn default_gravity() -> Gravity {
 
 /// Gravity as a scenario gives it.
 #[derive(Debug, Clone, Copy, Deserialize, PartialEq)]
-#[serde(untagged)]
+#[serde(try_from = "Vec<f64>")]
 pub enum Gravity {
     /// [x, y] in the plane the mechanism moves in, m/s².
     InPlane([f64; 2]),
     /// [x, y, z] in the URDF's frame, m/s²; its part along the plane's normal is borne by the
     /// joints and moves nothing.
     InUrdf([f64; 3]),
+}
+
+impl TryFrom<Vec<f64>> for Gravity {
+    type Error = String;
+
+    fn try_from(values: Vec<f64>) -> Result<Self, String> {
+        match values.as_slice() {
+            &[x, y] => Ok(Gravity::InPlane([x, y])),
+            &[x, y, z] => Ok(Gravity::InUrdf([x, y, z])),
+            other => Err(format!(
+                "{} elements: give 2 (in the plane, m/s²) or 3 (in the URDF's frame)",
+                other.len()
+            )),
+        }
+    }
 }
 
 impl Gravity {

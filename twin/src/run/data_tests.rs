@@ -1,9 +1,10 @@
 //! The data format's round trips (CSV, Parquet, a recording), a run's rows written when it is
 //! interrupted, and the unit conversions and resampling checked against hand values.
 
-use super::file::sha256_hex;
-use super::*;
-use crate::run::{Simulator, StopFlag, Twin};
+use super::RunTable;
+use super::{Simulator, StopFlag, Twin};
+use crate::data::sha256_hex;
+use crate::data::*;
 use crate::scenario::Scenario;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -258,7 +259,7 @@ fn units_convert_to_si_and_renames_apply_first() {
         ("rad/s^2", "rad/s²", 1.0),
         ("N.m", "N·m", 1.0),
     ] {
-        assert_eq!(units::factor(unit, "x", si), Ok(value), "{unit}");
+        assert_eq!(crate::data::units::factor(unit, "x", si), Ok(value), "{unit}");
     }
     std::fs::remove_dir_all(&dir).ok();
 }

@@ -3,12 +3,12 @@
 
 use std::path::PathBuf;
 
-use super::csv_file;
-use super::file::sha256_hex;
-use super::parquet_file;
-use super::{ColumnRole, DataColumn, DataError, PlantColumns, RunData};
+use super::{Findings, Observer, ObserverError, SignalLayout, Simulator, StepView};
+use crate::data::csv_file;
+use crate::data::parquet_file;
+use crate::data::sha256_hex;
+use crate::data::{ColumnRole, DataColumn, DataError, PlantColumns, RunData};
 use crate::output::OutputFile;
-use crate::run::{Findings, Observer, ObserverError, SignalLayout, StepView};
 
 /// A table's bytes in one of the file formats.
 type ToBytes = fn(&RunData) -> Result<Vec<u8>, String>;
@@ -133,5 +133,37 @@ impl Observer for RunTable {
     fn finish(&mut self) -> Result<Findings, ObserverError> {
         self.write()?;
         Ok(Findings::default())
+    }
+}
+
+/// The columns a run reads and writes, from the run's side.
+impl PlantColumns {
+    /// What `simulator`'s plant reads and writes.
+    pub fn of_simulator(simulator: &Simulator) -> Self {
+        let actuators = simulator.actuators().iter().map(|a| a.joint.clone());
+        Self {
+            actuators: actuators
+                .zip(simulator.command_units())
+                .map(|(joint, unit)| (joint, unit.to_owned()))
+                .collect(),
+            signals: simulator
+                .signal_specs()
+                .iter()
+                .map(|s| (s.name.clone(), s.unit.si_label().to_owned()))
+                .collect(),
+        }
+    }
+
+    /// What a run of `layout` reads and writes.
+    pub fn of_layout(layout: &SignalLayout) -> Self {
+        let efforts = layout.specs.efforts.iter();
+        Self {
+            actuators: (layout.actuators.iter().zip(efforts))
+                .map(|(joint, [commanded, _])| (joint.clone(), commanded.si_label().to_owned()))
+                .collect(),
+            signals: (layout.signals.iter().zip(&layout.specs.signals))
+                .map(|(name, spec)| (name.clone(), spec.unit.si_label().to_owned()))
+                .collect(),
+        }
     }
 }

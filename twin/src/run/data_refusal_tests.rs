@@ -2,9 +2,9 @@
 //! columns of other types, and malformed files (mutated CSV and Parquet, cut recordings)
 //! refused without a panic.
 
-use super::tests::{loaded, scratch, small_plant, write};
-use super::*;
-use crate::run::Twin;
+use super::data_tests::{loaded, scratch, small_plant, write};
+use super::Twin;
+use crate::data::*;
 use std::path::Path;
 use std::sync::Arc;
 
