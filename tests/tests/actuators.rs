@@ -4,8 +4,8 @@
 //! the recording's plots), reports no current; what cannot be is refused in one line naming the
 //! key.
 
-use twin::RunTable;
 use twin::recordings::SeriesRole;
+use twin::RunTable;
 use twin::{ScenarioBuilder, Simulator, Twin};
 use twin_tests::{builtin, refusal, scratch, Configure};
 

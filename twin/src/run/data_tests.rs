@@ -259,7 +259,11 @@ fn units_convert_to_si_and_renames_apply_first() {
         ("rad/s^2", "rad/s²", 1.0),
         ("N.m", "N·m", 1.0),
     ] {
-        assert_eq!(crate::data::units::factor(unit, "x", si), Ok(value), "{unit}");
+        assert_eq!(
+            crate::data::units::factor(unit, "x", si),
+            Ok(value),
+            "{unit}"
+        );
     }
     std::fs::remove_dir_all(&dir).ok();
 }
