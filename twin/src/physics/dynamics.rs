@@ -131,7 +131,7 @@ impl Kinematics {
     /// Velocity of a world point fixed on `link` and the link's angular velocity, [vx, vy, ω]:
     /// the centre of mass's J·q̇ plus ω × (point − com).
     pub fn point_velocity(&self, link: usize, point: [f64; 2], v: &[f64]) -> [f64; 3] {
-        self.point_velocity_of::<0>(link, point, v)
+        sized!(self.n, Self::point_velocity_of(self, link, point, v))
     }
 
     #[inline(always)]
