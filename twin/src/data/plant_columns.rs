@@ -5,7 +5,7 @@ use super::units;
 use crate::recording::ColumnRole;
 
 /// What one scenario's twin reads and writes: its actuators and plant signals with their SI
-/// units, from a [`Simulator`] or a run's [`SignalLayout`].
+/// units, from a `Simulator` or a run's `SignalLayout` (made by the run: `run/table.rs`).
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct PlantColumns {
     /// Per actuator: its joint and its command's SI unit (`N`, `N·m`, or `A` for a drive that
