@@ -7,7 +7,7 @@
 
 mod common;
 
-use common::{scratch, twin};
+use common::{columns, scratch, twin};
 use serde_json::Value;
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
@@ -62,25 +62,6 @@ fn mujoco_on(dir: &Path, urdf: &str, args: &[&str]) {
         .output()
         .expect("python runs");
     ok(&output);
-}
-
-/// A run CSV's columns by name (without the unit), each a column of numbers.
-fn columns(path: &Path) -> HashMap<String, Vec<f64>> {
-    let text = std::fs::read_to_string(path).unwrap();
-    let mut lines = text.lines();
-    let names: Vec<String> = (lines.next().unwrap().split(','))
-        .map(|h| h.split(" [").next().unwrap().to_string())
-        .collect();
-    let mut table: HashMap<String, Vec<f64>> = HashMap::new();
-    for line in lines {
-        for (name, cell) in names.iter().zip(line.split(',')) {
-            table
-                .entry(name.clone())
-                .or_default()
-                .push(cell.parse().unwrap());
-        }
-    }
-    table
 }
 
 /// A shipped example moving free for 2 s from `initial` (joint, position, velocity), MuJoCo

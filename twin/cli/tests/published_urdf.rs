@@ -9,8 +9,7 @@
 
 mod common;
 
-use common::{scratch, tools_python, twin};
-use std::collections::HashMap;
+use common::{columns, scratch, tools_python, twin};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
@@ -33,25 +32,6 @@ fn drake(dir: &Path, args: &[&str]) -> String {
         .output()
         .expect("python runs");
     ok(&output)
-}
-
-/// A run CSV's columns by name (without the unit).
-fn columns(path: &Path) -> HashMap<String, Vec<f64>> {
-    let text = std::fs::read_to_string(path).unwrap();
-    let mut lines = text.lines();
-    let names: Vec<String> = (lines.next().unwrap().split(','))
-        .map(|h| h.split(" [").next().unwrap().to_string())
-        .collect();
-    let mut table: HashMap<String, Vec<f64>> = HashMap::new();
-    for line in lines {
-        for (name, cell) in names.iter().zip(line.split(',')) {
-            table
-                .entry(name.clone())
-                .or_default()
-                .push(cell.parse().unwrap());
-        }
-    }
-    table
 }
 
 /// A scenario in `dir` on the wheel's Acrobot.urdf, as it is installed, from shoulder 0.8 rad

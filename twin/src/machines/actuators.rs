@@ -47,10 +47,12 @@ pub type ActuatorSpecs = BTreeMap<String, ActuatorSpec>;
 
 /// The kind `specs` gives the actuator on `joint`: its own entry's, else `"*"`'s, else `drive`.
 pub fn kind_of(specs: &ActuatorSpecs, joint: &str) -> ActuatorKind {
-    specs
-        .get(joint)
-        .or_else(|| specs.get(EVERY_ACTUATOR))
-        .map_or(ActuatorKind::Drive, |spec| spec.kind)
+    spec_of(specs, joint).map_or(ActuatorKind::Drive, |spec| spec.kind)
+}
+
+/// The entry that speaks for the actuator on `joint`: its own, else `"*"`'s.
+pub fn spec_of<'a>(specs: &'a ActuatorSpecs, joint: &str) -> Option<&'a ActuatorSpec> {
+    specs.get(joint).or_else(|| specs.get(EVERY_ACTUATOR))
 }
 
 /// The entry that gives `joint` its kind, as the scenario spells it: `actuators.<joint>` or

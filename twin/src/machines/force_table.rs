@@ -5,7 +5,8 @@
 //! first row's, after the last the last row's. The file is read when the scenario is loaded,
 //! named relative to the scenario's folder.
 
-use crate::data::{PlantColumns, RunData};
+use crate::data::units::factor;
+use crate::data::RunData;
 use std::path::Path;
 
 /// A force in time: rows of (t, fx, fy), t rising, SI units.
@@ -18,10 +19,6 @@ impl ForceTable {
         let path = folder.map_or_else(|| Path::new(file).to_path_buf(), |f| f.join(file));
         let data = RunData::read(&path, &[]).map_err(|e| e.to_string())?;
         let source = &data.source;
-        let wanted = PlantColumns {
-            actuators: Vec::new(),
-            signals: vec![("fx".into(), "N".into()), ("fy".into(), "N".into())],
-        };
         let mut axes = Vec::with_capacity(2);
         for name in ["fx", "fy"] {
             if let Some(bad) = data.unread.iter().find(|c| c.name == name) {
@@ -31,7 +28,7 @@ impl ForceTable {
             let column = (data.column(name).filter(|c| !c.unit.is_empty())).ok_or_else(|| {
                 format!("{source}: no column \"{name} [N]\" (with its unit); a force table has `time`, `fx` and `fy`")
             })?;
-            let (_, _, factor) = (wanted.bind_column(name, &column.unit))
+            let factor = factor(&column.unit, name, "N")
                 .map_err(|reason| format!("{source}: column \"{name}\": {reason}"))?;
             axes.push(
                 column

@@ -2,7 +2,7 @@
 //! joint's transmission (its `<mechanicalReduction>`), ideal, or through a DC servo drive from the
 //! scenario's data sheet (`[actuators.<joint>] kind = "dc-servo"`), whose command is a current.
 
-use super::actuators::{key_of, ActuatorKind, ActuatorSpecs};
+use super::actuators::{key_of, spec_of, ActuatorKind, ActuatorSpecs};
 use super::MachineError;
 use crate::mechanism::Mechanism;
 use crate::physics::MechanismState;
@@ -31,7 +31,7 @@ impl JointDrives {
         let mut drives = Vec::new();
         for j in mechanism.actuated_joints() {
             let joint = &mechanism.joints[j];
-            let spec = specs.get(&joint.name).or_else(|| specs.get("*"));
+            let spec = spec_of(specs, &joint.name);
             let servo = match spec.filter(|s| s.kind == ActuatorKind::DcServo) {
                 Some(spec) => Some(servo(
                     spec.drive,

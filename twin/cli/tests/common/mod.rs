@@ -1,6 +1,7 @@
 //! Helpers shared by the binary's tests (each test file uses some of them).
 #![allow(dead_code)]
 
+use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
 use std::time::{Duration, Instant};
@@ -98,4 +99,23 @@ pub fn free_port() -> u16 {
 /// The lines of an error's stderr without its `hint:` line (a usage error's last).
 pub fn error_lines(stderr: &str) -> usize {
     stderr.lines().filter(|l| !l.starts_with("hint: ")).count()
+}
+
+/// A run CSV's columns by name (without the unit), each a column of numbers.
+pub fn columns(path: &Path) -> HashMap<String, Vec<f64>> {
+    let text = std::fs::read_to_string(path).unwrap();
+    let mut lines = text.lines();
+    let names: Vec<String> = (lines.next().unwrap().split(','))
+        .map(|h| h.split(" [").next().unwrap().to_string())
+        .collect();
+    let mut table: HashMap<String, Vec<f64>> = HashMap::new();
+    for line in lines {
+        for (name, cell) in names.iter().zip(line.split(',')) {
+            table
+                .entry(name.clone())
+                .or_default()
+                .push(cell.parse().unwrap());
+        }
+    }
+    table
 }
