@@ -11,7 +11,9 @@
 //!   average-run-length formula so that the false alarms over all tests together do not
 //!   exceed the stated rate. It alarms above h and releases below h/2 (hysteresis);
 //! - **χ² on the NIS** (νᵀS⁻¹ν) summed over windows of one second, standardised by its
-//!   learnt mean and spread: the test of all signals together;
+//!   learnt mean and spread: the test of all signals together. Its threshold is Student's t
+//!   quantile for the learnt quarter windows (a prediction bound from n of them: n − 1
+//!   degrees of freedom, scaled by √(1 + 1/n)), as mean and spread are estimates;
 //! - **parameter drift:** each tracked parameter's estimate against its value at the end of
 //!   learning, in standard deviations of their difference.
 //!
@@ -19,6 +21,7 @@
 //! second; it carries the signals that alarmed, its start (the CUSUM's change-point estimate),
 //! its end and its size (the largest standardised shift).
 
+use super::student::student_quantile;
 use super::{Anomaly, Attribution};
 use std::collections::VecDeque;
 
@@ -323,7 +326,11 @@ impl Detector {
         let run_length = 2.0 * 3600.0 * blocks_per_second / share;
         self.cusum_threshold = siegmund_threshold(run_length);
         let per_window = share * NIS_WINDOW / 3600.0;
-        self.nis_threshold = normal_quantile(1.0 - per_window);
+        // The NIS window is standardised by a mean and a spread learnt from the quarter
+        // windows: a prediction bound from them is Student's, not the normal's.
+        let batches = self.nis_batches.len().saturating_sub(1).max(2) as f64;
+        self.nis_threshold =
+            student_quantile(per_window, batches - 1.0) * (1.0 + 1.0 / batches).sqrt();
         self.drift_threshold = normal_quantile(1.0 - 0.5 * per_window);
         let rho = self.nis_learnt.correlation();
         let per_second = self.nis_learnt.count / learnt_for;
@@ -383,10 +390,11 @@ impl Detector {
         }
     }
 
-    /// The spread of a window's NIS sum about `mean` from the learnt quarter windows' (batch
+    /// The spread of a window's NIS sum about `mean` from the learnt quarter windows (batch
     /// means: it holds whatever correlation is shorter than a quarter window, where the lag-1
     /// correlation alone misses a longer one, as a held axis's quantised readings have), or
-    /// `None` with fewer than [`LEAST_BATCHES`] of them.
+    /// from whole windows sliding by a quarter, whichever is larger; `None` with fewer than
+    /// [`LEAST_BATCHES`] quarters.
     fn batch_means_spread(&self, mean: f64) -> Option<f64> {
         // The last quarter is cut short by the end of learning.
         let whole = &self.nis_batches[..self.nis_batches.len().saturating_sub(1)];
@@ -396,7 +404,20 @@ impl Detector {
         let squares = (whole.iter())
             .map(|&(_, sum, count)| (sum - count as f64 * mean).powi(2))
             .sum::<f64>();
-        Some((BATCHES_PER_WINDOW * squares / whole.len() as f64).sqrt())
+        let batch_means = (BATCHES_PER_WINDOW * squares / whole.len() as f64).sqrt();
+        // Whole windows sliding by a quarter: their sums' spread about the mean holds what
+        // drifts slower than a window (the level of the NIS wandering with the machine's
+        // operating point, or an encoder's quantisation beating with the sampling).
+        let quarters = BATCHES_PER_WINDOW as usize;
+        let windows: Vec<f64> = (whole.windows(quarters))
+            .map(|w| {
+                let (sum, count) =
+                    (w.iter()).fold((0.0, 0), |(s, c), &(_, sum, count)| (s + sum, c + count));
+                (sum - count as f64 * mean).powi(2)
+            })
+            .collect();
+        let sliding = (windows.iter().sum::<f64>() / windows.len().max(1) as f64).sqrt();
+        Some(batch_means.max(sliding))
     }
 
     fn nis_step(&mut self, nis_per_dof: f64, time: f64) {

@@ -17,6 +17,7 @@ mod intake;
 mod model;
 mod options;
 mod record;
+mod student;
 mod watch;
 
 pub use detector::{AnomalyChange, DetectorView};
