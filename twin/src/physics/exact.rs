@@ -14,6 +14,7 @@
 //! Every velocity handed out is the end-of-step state: link velocities are J(q)·q̇ at the final q.
 
 use super::dynamics::{Dynamics, HeldLoad, Inputs, Kinematics, Model};
+use super::held_closure::held_correction;
 use super::rapier_model::RapierModel;
 use super::tree::Tree;
 use super::{loop_gaps, Load, MechanismState};
@@ -111,17 +112,68 @@ impl ExactEngine {
 
     /// Puts tree joints (index, position, velocity; URDF sense) in a starting state, then closes
     /// the loops and makes the velocities consistent with them.
+    /// The coordinates given are held where the others can close the loops alone (a five-bar
+    /// given both crank angles starts at them); otherwise every coordinate moves, mass-weighted.
     pub fn set_joint_states(&mut self, states: &[(usize, f64, f64)]) {
+        let mut held = vec![false; self.q.len()];
         for &(joint, position, velocity) in states {
             if let Some(g) = self.model.dof_of_joint.get(joint).copied().flatten() {
                 self.q[g] = self.model.sign[g] * position;
                 self.v[g] = self.model.sign[g] * velocity;
+                held[g] = true;
             }
+        }
+        if self.model.constraint_count > 0 && held.contains(&true) {
+            self.close_loops_holding(&held);
         }
         self.close_loops();
         if self.model.constraint_count > 0 {
             self.dynamics
                 .project_velocity(&self.model, &self.kin, &mut self.v);
+        }
+    }
+
+    /// Gauss–Newton on the coordinates not `held` until the loops close; leaves q as it was if
+    /// they cannot (the held ones fix the loop, or the iteration does not converge).
+    fn close_loops_holding(&mut self, held: &[bool]) {
+        let n = self.q.len();
+        let start = self.q.clone();
+        let mut dq = vec![0.0; n];
+        for _ in 0..4 * CLOSURE_ITERATIONS {
+            self.tree.pose(&self.q, &mut self.kin);
+            self.dynamics.constraints(&self.model, &self.kin, None);
+            let residual = (self.dynamics.phi.iter()).fold(0.0, |m: f64, p| m.max(p.abs()));
+            if residual <= CLOSURE_TOLERANCE {
+                return self.hold_velocities(held);
+            }
+            let (phi, g) = (&self.dynamics.phi, &self.dynamics.g);
+            if !residual.is_finite() || !held_correction(phi, g, n, held, &mut dq) {
+                break;
+            }
+            for (q, d) in self.q.iter_mut().zip(&dq) {
+                *q += d;
+            }
+        }
+        self.q = start;
+    }
+
+    /// Makes the free velocities consistent with the loops, the held ones kept: v_F −=
+    /// G_Fᵀ (G_F G_Fᵀ)⁻¹ G v, at the closed configuration.
+    fn hold_velocities(&mut self, held: &[bool]) {
+        let n = self.v.len();
+        let g = &self.dynamics.g;
+        let rates: Vec<f64> = (0..self.model.constraint_count)
+            .map(|r| {
+                (g[r * n..(r + 1) * n].iter().zip(&self.v))
+                    .map(|(a, b)| a * b)
+                    .sum()
+            })
+            .collect();
+        let mut dv = vec![0.0; n];
+        if held_correction(&rates, g, n, held, &mut dv) {
+            for (v, d) in self.v.iter_mut().zip(&dv) {
+                *v += d;
+            }
         }
     }
 

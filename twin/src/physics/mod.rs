@@ -15,6 +15,7 @@ mod contacts;
 mod dense;
 mod dynamics;
 mod exact;
+mod held_closure;
 mod linearize;
 mod options;
 mod rapier_engine;
