@@ -32,8 +32,20 @@ ROOT = pathlib.Path(__file__).resolve().parents[3]
 TARGET = pathlib.Path(os.environ.get("CARGO_TARGET_DIR", ROOT / "target")).resolve()
 TWIN = pathlib.Path(os.environ.get("TWIN", TARGET / "release" / "twin")).resolve()
 
-# The shipped example of the generic machine (no `machine`: any planar URDF), by its path.
-DOUBLE_PENDULUM = str(ROOT / "examples" / "double-pendulum" / "double-pendulum.toml")
+# The shipped examples of the generic machine (no `machine`: any planar URDF), by their paths,
+# each with a joint its controller moves.
+def example(name):
+    return str(ROOT / "examples" / name / f"{name}.toml")
+
+
+DOUBLE_PENDULUM = example("double-pendulum")
+EXAMPLES = {
+    DOUBLE_PENDULUM: "shoulder.position",
+    example("cart-pole"): "cart.position",
+    example("slider-crank"): "crank.position",
+    example("five-bar"): "left.position",
+    example("gantry"): "x.position",
+}
 
 MACHINES = [
     "whitworth-crank-pi",
@@ -42,7 +54,7 @@ MACHINES = [
     "feed-axis-micromilling",
     "lathe-turning",
     "milling-constant-15000",
-    DOUBLE_PENDULUM,
+    *EXAMPLES,
 ]
 
 
@@ -209,7 +221,8 @@ def assert_matches(result, outputs, run, first_row=0):
 
 @pytest.mark.parametrize(
     "scenario, duration",
-    [("feed-axis-micromilling", 0.2), ("whitworth-crank-pi", 0.5), (DOUBLE_PENDULUM, 0.5)],
+    [("feed-axis-micromilling", 0.2), ("whitworth-crank-pi", 0.5),
+     *[(path, 0.5) for path in EXAMPLES]],
 )
 def test_the_closed_loop_matches_the_twins_own_run(scenario, duration, tmp_path):
     fmu = make_fmu(scenario, tmp_path)
@@ -217,7 +230,7 @@ def test_the_closed_loop_matches_the_twins_own_run(scenario, duration, tmp_path)
     run = closed_run(scenario, duration, tmp_path)
     assert_matches(result, outputs, run)
     moved = {"feed-axis-micromilling": "table.position", "whitworth-crank-pi": "crank.velocity",
-             DOUBLE_PENDULUM: "shoulder.position"}[scenario]
+             **EXAMPLES}[scenario]
     assert np.ptp(run["measured." + moved]) > 0, "the loop moved nothing"
 
 

@@ -45,6 +45,29 @@ def test_the_generic_machine_runs_a_shipped_example_from_its_path():
     assert abs(result.summary["metrics"]["controller_final/shoulder.error"]) < 0.01
 
 
+EXAMPLES = Path(__file__).resolve().parents[3] / "examples"
+# Every shipped example's scenarios but replay.toml, which reads a run the guide makes first.
+EXAMPLE_SCENARIOS = sorted(p for p in EXAMPLES.glob("*/*.toml") if p.stem != "replay")
+
+
+@pytest.mark.parametrize("path", EXAMPLE_SCENARIOS, ids=lambda p: f"{p.parent.name}/{p.stem}")
+def test_every_shipped_example_runs_through_python_as_through_the_command_line(
+        path, tmp_path, twin_cli):
+    """Each example of the generic machine (trees, loops, a contact, springs, lqr's design and
+    computed-torque's equations) by its path: the same figures and recorded series as
+    `twin run`."""
+    result = twin.Scenario(str(path)).duration(1.0).run(record=tmp_path / "py.rrd")
+    subprocess.run(
+        [twin_cli, "run", str(path), "--duration", "1.0", "--out", str(tmp_path / "cli.rrd"),
+         "--summary", str(tmp_path / "cli.json")],
+        check=True, capture_output=True,
+    )
+    cli = json.loads((tmp_path / "cli.json").read_text())
+    assert result.ok and result.summary["status"] == cli["status"] == "ok"
+    assert result.summary["series_digest"] == cli["series_digest"]
+    assert result.summary["metrics"] == cli["metrics"]
+
+
 def test_a_run_matches_the_command_line(tmp_path, twin_cli):
     """The same scenario and --set through Python and through `twin run`: same figures, same
     recorded series (digest), the recording written where asked."""
