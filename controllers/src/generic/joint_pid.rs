@@ -8,8 +8,14 @@
 //! integral stops growing while the effort is clipped. The derivative acts on the measured
 //! velocity (no filter: `<joint>.velocity` is the drive's own speed signal). No gravity
 //! feed-forward: the law knows only what it measures.
+//!
+//! A point of the scenario may be given a path instead (`[controller.params.points.<name>]`
+//! `x`, `y`, any [`Reference`], m): the joints with no reference of their own then follow the
+//! positions and rates that put the point on it, by the twin's own kinematics
+//! ([`PointFollower`](super::point_reference)), and `<name>.reach` says how far it is off.
 
 use super::joint_reference;
+use super::point_reference::{PointFollower, PointReference};
 use crate::check::{finite, non_negative};
 use framework::{parse_params, Entry, ANY_MACHINE};
 use framework::{Controller, ControllerError, Measurement, PlantInterface, SignalSpec, Unit};
@@ -27,6 +33,10 @@ pub struct JointPidParams {
     /// effort. At least one is needed to run (checked when bound to the plant).
     #[serde(default)]
     pub joints: BTreeMap<String, JointLoop>,
+    /// `[controller.params.points.<name>]`: a point of the scenario's `[points]` on a path (`x`,
+    /// `y`); it moves every joint named here that has no `reference` of its own.
+    #[serde(default)]
+    pub points: BTreeMap<String, PointReference>,
 }
 
 /// One joint's loop (SI: rad or m, N·m or N).
@@ -91,7 +101,58 @@ pub fn design(params: &JointPidParams) -> Result<Vec<LoopGains>, ControllerError
             follow_reference: l.follow_reference,
         });
     }
+    check_points(params, &gains)?;
     Ok(gains)
+}
+
+/// The joints the points move: those with no reference of their own.
+fn moved_by_points(params: &JointPidParams, gains: &[LoopGains]) -> Vec<String> {
+    if params.points.is_empty() {
+        return Vec::new();
+    }
+    (gains.iter())
+        .filter(|g| g.reference.is_none() && !g.follow_reference)
+        .map(|g| g.joint.clone())
+        .collect()
+}
+
+/// Each point names a component; the points do not ask more components than joints they move,
+/// and those joints take no target.
+fn check_points(params: &JointPidParams, gains: &[LoopGains]) -> Result<(), ControllerError> {
+    let mut components = 0;
+    for (name, point) in &params.points {
+        let key = format!("points.{name}");
+        if point.components().next().is_none() {
+            return Err(ControllerError::parameter_table(
+                NAME,
+                key,
+                "give the point's path along x, y or both: x = { kind = … }",
+            ));
+        }
+        for (axis, reference) in point.components() {
+            joint_reference::check(NAME, &format!("{key}.{}", ["x", "y"][axis]), reference)?;
+            components += 1;
+        }
+    }
+    let moved = moved_by_points(params, gains);
+    if let Some(g) = (gains.iter()).find(|g| moved.contains(&g.joint) && g.target != 0.0) {
+        return Err(ControllerError::parameter_table(
+            NAME,
+            format!("joints.{}.target", g.joint),
+            "a joint the points move takes its setpoint from them; leave target out",
+        ));
+    }
+    if components > moved.len() {
+        return Err(ControllerError::parameter_table(
+            NAME,
+            "points",
+            format!(
+                "{components} components of points to follow and {} joints to move them (the joints with no reference of their own): name more joints, or fewer components",
+                moved.len()
+            ),
+        ));
+    }
+    Ok(())
 }
 
 /// A loop bound to the plant: where its signals and actuator are, and its state.
@@ -110,6 +171,10 @@ struct Bound {
 /// The running law.
 pub struct JointPid {
     gains: Vec<LoopGains>,
+    /// The points' references and the joints they move.
+    points: Vec<(String, PointReference)>,
+    moved: Vec<String>,
+    follower: Option<PointFollower>,
     loops: Vec<Bound>,
     /// The reference's value and rate signals, when a loop follows it.
     reference: Option<[usize; 2]>,
@@ -118,8 +183,12 @@ pub struct JointPid {
 impl JointPid {
     /// Checks the parameters; the loops are bound to the plant at `reset`.
     pub fn new(params: JointPidParams) -> Result<Self, ControllerError> {
+        let gains = design(&params)?;
         Ok(Self {
-            gains: design(&params)?,
+            moved: moved_by_points(&params, &gains),
+            points: params.points.into_iter().collect(),
+            follower: None,
+            gains,
             loops: Vec::new(),
             reference: None,
         })
@@ -169,6 +238,10 @@ impl Controller for JointPid {
                 effort: 0.0,
             });
         }
+        self.follower = match self.points.is_empty() {
+            true => None,
+            false => Some(PointFollower::bind(NAME, &self.points, &self.moved, plant)?),
+        };
         self.reference = match self.gains.iter().any(|g| g.follow_reference) {
             true => Some([plant.signal("reference")?, plant.signal("reference_rate")?]),
             false => None,
@@ -181,9 +254,15 @@ impl Controller for JointPid {
             let value = |i: usize| measurement.get(i);
             [value(r), value(rate)]
         });
+        let from_points = (self.follower.as_mut()).map(|f| f.targets(measurement));
         for l in &mut self.loops {
             let g = &l.gains;
+            let moved = self.moved.iter().position(|j| *j == g.joint);
             let [r, rate] = match (&g.reference, g.follow_reference, reference) {
+                _ if moved.is_some() && from_points.is_some() => from_points
+                    .as_ref()
+                    .zip(moved)
+                    .map_or([0.0; 2], |(t, k)| t[k]),
                 (Some(own), _, _) => {
                     let sample = own.sample(measurement.time);
                     [sample.position + g.target, sample.rate]
@@ -204,14 +283,22 @@ impl Controller for JointPid {
     }
 
     fn internals(&self) -> Vec<SignalSpec> {
-        (self.gains.iter())
-            .map(|g| SignalSpec::new(format!("{}.error", g.joint), Unit::Dimensionless, "errors"))
-            .collect()
+        let errors = (self.gains.iter())
+            .map(|g| SignalSpec::new(format!("{}.error", g.joint), Unit::Dimensionless, "errors"));
+        let reach = (self.points.iter())
+            .map(|(name, _)| SignalSpec::new(format!("{name}.reach"), Unit::Metre, "errors"));
+        errors.chain(reach).collect()
     }
 
     fn internal_values(&self, values: &mut [f64]) {
         for (value, l) in values.iter_mut().zip(&self.loops) {
             *value = l.error;
+        }
+        if let Some(follower) = &self.follower {
+            let reach = values.iter_mut().skip(self.loops.len());
+            for (value, distance) in reach.zip(&follower.reach) {
+                *value = *distance;
+            }
         }
     }
 }

@@ -6,4 +6,5 @@ pub mod joint_pid;
 mod joint_reference;
 pub mod lqr;
 mod model;
+pub mod point_reference;
 pub mod replay;

@@ -51,6 +51,19 @@ pub trait Dynamics: Send + Sync {
         efforts: &[f64],
         acceleration: &mut [f64],
     ) -> Result<(), String>;
+
+    /// The scenario's points (`[points.<name>]`) [`Dynamics::point`] places, by name.
+    fn points(&self) -> Vec<String> {
+        Vec::new()
+    }
+
+    /// Where the scenario's point `name` (`[points.<name>]`) is with the independent
+    /// coordinates at `position`: [x, y] in the machine's plane, m; an error (one line) naming
+    /// the point if there is none, or where the loops do not close.
+    fn point(&self, name: &str, position: &[f64]) -> Result<[f64; 2], String> {
+        let _ = position;
+        Err(format!("the plant's equations know no point `{name}`"))
+    }
 }
 
 /// The efforts a logged run commanded, per actuator, on the control period's grid: row k holds

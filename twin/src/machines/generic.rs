@@ -80,7 +80,7 @@ impl TryFrom<Vec<f64>> for PointAt {
 impl PointAt {
     /// The point on the plane `plane` lays the URDF onto (its offset along the plane's normal
     /// moves nothing in the plane).
-    fn on(&self, plane: &crate::mechanism::Plane) -> [f64; 2] {
+    pub(crate) fn on(&self, plane: &crate::mechanism::Plane) -> [f64; 2] {
         match *self {
             PointAt::InPlane(at) => at,
             PointAt::InUrdf(at) => {

@@ -15,6 +15,8 @@ use std::sync::{Mutex, OnceLock};
 /// values), no process loads. Made when a controller first asks for them.
 pub(super) struct MechanismDynamics {
     mechanism: Mechanism,
+    /// The scenario's points: name, link, where on the link in the plane (m).
+    points: Vec<(String, usize, [f64; 2])>,
     gravity: [f64; 2],
     initial: Vec<(usize, f64, f64)>,
     actuated: Vec<usize>,
@@ -24,6 +26,8 @@ pub(super) struct MechanismDynamics {
 /// The reduced equations and the buffers one evaluation fills.
 struct Evaluation {
     reduced: ReducedDynamics,
+    /// The whole mechanism posed for a point.
+    posed: MechanismState,
     /// Tree joint of each actuator on a joint (the plant's order); the machine's own follow.
     actuated: Vec<usize>,
     joint_efforts: Vec<f64>,
@@ -43,11 +47,18 @@ impl MechanismDynamics {
     ) -> Self {
         Self {
             mechanism: mechanism.clone(),
+            points: Vec::new(),
             gravity,
             initial: initial.to_vec(),
             actuated: actuated.to_vec(),
             made: OnceLock::new(),
         }
+    }
+
+    /// With the scenario's `points` (name, link, where on it in the plane, m).
+    pub(super) fn with_points(mut self, points: Vec<(String, usize, [f64; 2])>) -> Self {
+        self.points = points;
+        self
     }
 
     /// The coordinates and the equations, made on first use.
@@ -75,6 +86,7 @@ impl MechanismDynamics {
             let k = coordinates.len();
             let evaluation = Evaluation {
                 reduced,
+                posed: MechanismState::default(),
                 actuated: self.actuated.clone(),
                 joint_efforts: vec![0.0; joints],
                 state: vec![0.0; 2 * k],
@@ -113,6 +125,7 @@ impl Dynamics for MechanismDynamics {
             joint_efforts,
             state,
             rates,
+            ..
         } = &mut *guard;
         state[..k].copy_from_slice(position);
         state[k..].copy_from_slice(velocity);
@@ -126,6 +139,41 @@ impl Dynamics for MechanismDynamics {
             .map_err(|e| e.to_string())?;
         acceleration.copy_from_slice(&rates[k..]);
         Ok(())
+    }
+
+    fn points(&self) -> Vec<String> {
+        self.points
+            .iter()
+            .map(|(name, _, _)| name.clone())
+            .collect()
+    }
+
+    fn point(&self, name: &str, position: &[f64]) -> Result<[f64; 2], String> {
+        let Some((_, link, at)) = self.points.iter().find(|(n, _, _)| n == name) else {
+            return Err(format!(
+                "the scenario has no point `{name}` ([points.{name}])"
+            ));
+        };
+        let (coordinates, evaluation) = self.made();
+        let k = coordinates.len();
+        if position.len() != k {
+            return Err(format!("a point's place takes {k} positions"));
+        }
+        let mut guard = evaluation
+            .lock()
+            .map_err(|_| "the equations of motion were left mid-evaluation".to_string())?;
+        let Evaluation {
+            reduced,
+            posed,
+            state,
+            ..
+        } = &mut *guard;
+        state[..k].copy_from_slice(position);
+        state[k..].fill(0.0);
+        (reduced.recenter(state))
+            .and_then(|()| reduced.read_state(state, posed))
+            .map_err(|e| e.to_string())?;
+        Ok(posed.link_poses[*link].apply(at[0], at[1]))
     }
 }
 

@@ -198,12 +198,10 @@ impl Twin {
             machine: scenario.machine.clone(),
             signals: layout.signals.clone(),
             actuators,
-            dynamics: Some(Arc::new(MechanismDynamics::new(
-                &mechanism,
-                scenario.gravity,
-                &initial,
-                &actuated,
-            ))),
+            dynamics: Some(Arc::new(
+                MechanismDynamics::new(&mechanism, scenario.gravity, &initial, &actuated)
+                    .with_points(point_places(scenario, &mechanism)),
+            )),
             files: Some(Arc::new(ScenarioFolder::new(
                 loaded.folder.clone(),
                 PlantColumns::of_layout(&layout),
@@ -703,6 +701,17 @@ fn initial_states(
                 .filter(|&j| !matches!(mechanism.joints[j].motion, JointMotion::Fixed))
                 .ok_or_else(|| format!("initial.{name}: the URDF has no moving joint `{name}`"))?;
             Ok((joint, state.position, state.velocity))
+        })
+        .collect()
+}
+
+/// The scenario's `[points]` as (name, link, where on the link in the plane); a point on a link
+/// the URDF lacks is left out (the machine refuses it by name).
+fn point_places(scenario: &Scenario, mechanism: &Mechanism) -> Vec<(String, usize, [f64; 2])> {
+    (scenario.points.iter())
+        .filter_map(|(name, spec)| {
+            let link = mechanism.link_index(&spec.link)?;
+            Some((name.clone(), link, spec.at.on(&mechanism.plane)))
         })
         .collect()
 }
