@@ -2,7 +2,7 @@
 //! handed out as a simulator or compared with a measured run.
 
 use crate::controller::PythonController;
-use crate::errors::{from_scenario, from_twin, ScenarioError};
+use crate::errors::{from_scenario, from_twin, ScenarioError, TwinError};
 use crate::measured;
 use crate::result::{RunResult, Series};
 use crate::simulator::Simulator;
@@ -245,6 +245,33 @@ impl Scenario {
     ) -> PyResult<Bound<'py, PyDict>> {
         let reading = measured::read_options(rename, &Default::default(), delimiter, strict)?;
         measured::compare(py, &self.builder, &data, closed_loop, &reading)
+    }
+
+    /// This scenario's plant linearised at `at` s as `twin linearize` does (the scenario run with
+    /// its controller to `at`, the efforts held there, the exact engine's equations of motion
+    /// differenced about that state). Returns linear.json's content as a dict: `states`,
+    /// `inputs`, `outputs` (each `{name, unit}`), `A`, `B`, `C`, `D`, `Ad`, `Bd` (NumPy arrays),
+    /// `poles`, `operating_point`, `control_period` and the rest, SI.
+    #[pyo3(signature = (at=0.0))]
+    fn linearize<'py>(&self, py: Python<'py>, at: f64) -> PyResult<Bound<'py, PyAny>> {
+        let loaded = self.load()?;
+        let model = py.detach(|| {
+            twin::Twin::new(loaded)
+                .map_err(twin::LinearizeError::from)?
+                .linearize(at)
+        });
+        let model = model.map_err(|error| match error {
+            twin::LinearizeError::Twin(error) => from_twin(error),
+            twin::LinearizeError::At { .. } => ScenarioError::new_err(format!("at: {error}")),
+            other => TwinError::new_err(other.to_string()),
+        })?;
+        let dict = measured::from_json(py, &model.to_json().to_string())?;
+        let numpy = py.import("numpy")?;
+        for key in ["A", "B", "C", "D", "Ad", "Bd", "poles"] {
+            let matrix = dict.get_item(key)?;
+            dict.set_item(key, numpy.call_method1("array", (matrix,))?)?;
+        }
+        Ok(dict)
     }
 
     fn __repr__(&self) -> String {

@@ -68,6 +68,26 @@ def test_every_shipped_example_runs_through_python_as_through_the_command_line(
     assert result.summary["metrics"] == cli["metrics"]
 
 
+@pytest.mark.parametrize("name", ["double-pendulum", "cart-pole", "slider-crank", "five-bar",
+                                  "gantry"])
+def test_each_example_linearises_through_python_as_through_the_command_line(
+        name, tmp_path, twin_cli):
+    """`Scenario.linearize()` is `twin linearize`'s linear.json, its matrices as NumPy arrays:
+    the same numbers, bit for bit, on every shipped example (trees, loops, a contact)."""
+    path = EXAMPLES / name / f"{name}.toml"
+    model = twin.Scenario(str(path)).linearize(at=0.5)
+    subprocess.run([twin_cli, "linearize", str(path), "--at", "0.5", "--out-dir",
+                    str(tmp_path / "lin")], check=True, capture_output=True)
+    cli = json.loads((tmp_path / "lin" / "linear.json").read_text())
+    for key in ("A", "B", "C", "D", "Ad", "Bd", "poles"):
+        assert isinstance(model[key], np.ndarray)
+        assert np.array_equal(model[key], np.array(cli[key])), key
+    assert [s["name"] for s in model["states"]] == [s["name"] for s in cli["states"]]
+    assert model["operating_point"] == cli["operating_point"]
+    with pytest.raises(twin.ScenarioError, match="at: "):
+        twin.Scenario(str(path)).linearize(at=-1.0)
+
+
 def test_a_run_matches_the_command_line(tmp_path, twin_cli):
     """The same scenario and --set through Python and through `twin run`: same figures, same
     recorded series (digest), the recording written where asked."""

@@ -1,13 +1,14 @@
 """The machining digital twin from Python.
 
-Three ways in, all in SI units:
+The ways in, all in SI units:
 
 * ``Scenario(name).set(key, value).run()`` runs a scenario whole (its own controller, or a
   Python one: ``run(controller=obj)`` with ``obj.update(t, measurements) -> efforts``) and
   returns a :class:`RunResult` with the summary as a dict and every signal as NumPy arrays;
 * ``Scenario(name).simulator()`` gives the plant without its controller, stepped one control
   period at a time (``sim.step(efforts) -> measurements``), so a Python loop is the controller;
-* ``twin.gym`` registers a Gymnasium environment per machine (``twin/Whitworth-v0``, …).
+* ``twin.gym`` registers a Gymnasium environment per machine (``twin/Whitworth-v0``, …);
+* ``Scenario(name).linearize(at)`` gives the plant's linear model as ``twin linearize`` does.
 
 Against a machine's measured runs (CSV, Parquet or a twin ``.rrd``, as ``RunResult.to_csv`` and
 ``to_parquet`` write them): ``Scenario(name).compare(path)`` replays a run and reports how far the
