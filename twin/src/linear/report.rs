@@ -1,6 +1,6 @@
 //! A linear model as JSON for scripts (`linear.json`) and as a table for people.
 
-use super::{Channel, LinearModel};
+use super::model::{Channel, LinearModel};
 use serde_json::{json, Value};
 use std::fmt::Write;
 

@@ -1,7 +1,7 @@
 //! The linearisation of a pendulum written here against its closed form: the central
 //! differences' error, the poles ±j·√(m·g·l/I), the zero-order hold.
 
-use super::{differentiate, Plant};
+use super::model::{differentiate, Jacobians, Plant};
 use crate::physics::{MechanismState, ReducedDynamics};
 use crate::urdf;
 
@@ -26,7 +26,7 @@ fn pendulum(damping: f64) -> crate::mechanism::Mechanism {
 }
 
 /// A, B, C at angle θ (from +x, gravity along −y) and rate θ̇, the pivot torque held at 0.
-fn linearise(damping: f64, angle: f64, rate: f64) -> super::Jacobians {
+fn linearise(damping: f64, angle: f64, rate: f64) -> Jacobians {
     let mechanism = pendulum(damping);
     let state = MechanismState {
         joint_positions: vec![angle],
