@@ -270,7 +270,7 @@ pub(super) struct HeldLoad {
 impl HeldLoad {
     /// A load held over a step from its start: its point in `frame` (the link's), and the
     /// point's velocity then.
-    pub fn new(load: &super::Load, frame: &Frame, start_velocity: [f64; 2]) -> Self {
+    pub fn new(load: &super::state::Load, frame: &Frame, start_velocity: [f64; 2]) -> Self {
         Self {
             link: load.link,
             force: load.force,

@@ -16,8 +16,8 @@
 use super::dynamics::{Dynamics, HeldLoad, Inputs, Kinematics, Model};
 use super::held_closure::held_correction;
 use super::rapier_model::RapierModel;
+use super::state::{loop_gaps, Load, MechanismState};
 use super::tree::Tree;
-use super::{loop_gaps, Load, MechanismState};
 use crate::mechanism::{Inertial, Mechanism};
 
 /// Largest loop-constraint residual (m, rad) the position projection leaves.

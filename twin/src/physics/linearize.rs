@@ -17,7 +17,7 @@
 
 use super::dynamics::{HeldLoad, Inputs};
 use super::exact::{ExactEngine, ExactSettings};
-use super::{Load, MechanismState};
+use super::state::{Load, MechanismState};
 use crate::mechanism::{Inertial, JointMotion, Mechanism};
 use nalgebra::{DMatrix, DVector};
 

@@ -296,3 +296,38 @@ impl ContactOptions {
         Ok(())
     }
 }
+
+/// Solver settings a scenario may tune.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SolverSettings {
+    /// Physics step, s.
+    pub dt: f64,
+    /// Gravitational acceleration in the world frame [x, y], m/s².
+    pub gravity: [f64; 2],
+    /// The exact engine's RK4 substeps per step (efforts and loads are held over the whole step).
+    pub substeps: usize,
+    /// The engine and the rapier engine's settings (`[solver]`).
+    pub solver: SolverOptions,
+    /// How the rapier engine resolves contacts (`[contact]`).
+    pub contact: ContactOptions,
+    /// The rigid bodies beside the mechanism (`[[bodies]]`).
+    pub bodies: Vec<BodySpec>,
+    /// Pairs that touch by design (`[[allowed_contacts]]`): the rapier engine does not push
+    /// them apart (a tool in its stock is a cut, which the machine's process model computes).
+    pub allowed_contacts: Vec<AllowedContact>,
+}
+
+impl SolverSettings {
+    /// The exact engine with `substeps` RK4 substeps and nothing beside the mechanism.
+    pub fn exact(dt: f64, gravity: [f64; 2], substeps: usize) -> Self {
+        Self {
+            dt,
+            gravity,
+            substeps,
+            solver: SolverOptions::default(),
+            contact: ContactOptions::default(),
+            bodies: Vec::new(),
+            allowed_contacts: Vec::new(),
+        }
+    }
+}

@@ -35,10 +35,10 @@
 use super::contacts::{allowed_pairs, weld_groups};
 use super::dynamics::{Frame, HeldLoad};
 use super::exact::{ExactEngine, ExactSettings};
+use super::options::{BodyKind, BodySpec, ContactOptions, SolverSettings};
 use super::rapier_model::{axis_frame, insert_links, insert_tree, locked_axes, mass_properties};
 use super::shapes::{from_parry, parry_shape, to_parry};
-use super::{loop_gaps, Load, MechanismState, SolverSettings, NO_DAMPING, NO_STIFFNESS};
-use super::{BodyKind, BodySpec, ContactOptions};
+use super::state::{loop_gaps, Load, MechanismState, NO_DAMPING, NO_STIFFNESS};
 use crate::mechanism::{Inertial, JointMotion, Mechanism, Pose2, Shape};
 use rapier2d_f64::prelude::*;
 

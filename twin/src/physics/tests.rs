@@ -4,7 +4,7 @@
 
 use super::exact::{ExactEngine, ExactSettings};
 use super::*;
-use super::{BodyKind, BodyShape, BodySpec};
+use crate::mechanism::Mechanism;
 use crate::urdf;
 
 fn whitworth() -> Mechanism {
