@@ -380,3 +380,38 @@ fn joint_pid_moves_the_double_pendulums_tip_along_a_path_in_the_plane() {
         "{stderr}"
     );
 }
+
+/// An `[initial]` state the loop cannot close as given (every joint of the five-bar named, the
+/// elbows where the cranks cannot meet) is not silently moved: the run starts from the nearest
+/// closed configuration and says so in a note naming the joints.
+#[test]
+fn an_initial_state_the_loop_cannot_hold_is_said_in_a_note() {
+    let dir = scratch("generic-controllers", "initial-unheld");
+    let lqr = scenario("five-bar", "lqr");
+    let folder = Path::new(&lqr).parent().unwrap();
+    std::fs::copy(folder.join("five_bar.urdf"), dir.join("five_bar.urdf")).unwrap();
+    let elbows = "[initial.left_elbow]\nposition = 2.5\nvelocity = 0.0\n\n\
+                  [initial.right_elbow]\nposition = -2.5\nvelocity = 0.0\n\n[initial.right]";
+    let text = std::fs::read_to_string(&lqr).unwrap();
+    std::fs::write(
+        dir.join("all.toml"),
+        text.replacen("[initial.right]", elbows, 1),
+    )
+    .unwrap();
+    let output = twin(
+        &["run", "all.toml", "--duration", "0.1", "--out", "x.rrd"],
+        &dir,
+    );
+    ok(&output);
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(
+        stderr.contains(
+            "[initial]: the loops cannot close with left, left_elbow, right, right_elbow"
+        ),
+        "{stderr}"
+    );
+    // Given as the example gives it (the cranks only), no note.
+    let output = twin(&["run", &lqr, "--duration", "0.1", "--out", "y.rrd"], &dir);
+    ok(&output);
+    assert!(!String::from_utf8_lossy(&output.stderr).contains("[initial]"));
+}

@@ -114,7 +114,8 @@ impl ExactEngine {
     /// the loops and makes the velocities consistent with them.
     /// The coordinates given are held where the others can close the loops alone (a five-bar
     /// given both crank angles starts at them); otherwise every coordinate moves, mass-weighted.
-    pub fn set_joint_states(&mut self, states: &[(usize, f64, f64)]) {
+    /// Returns whether the coordinates given were held (true with no loop or none given).
+    pub fn set_joint_states(&mut self, states: &[(usize, f64, f64)]) -> bool {
         let mut held = vec![false; self.q.len()];
         for &(joint, position, velocity) in states {
             if let Some(g) = self.model.dof_of_joint.get(joint).copied().flatten() {
@@ -123,19 +124,22 @@ impl ExactEngine {
                 held[g] = true;
             }
         }
-        if self.model.constraint_count > 0 && held.contains(&true) {
-            self.close_loops_holding(&held);
-        }
+        let held_closed = match self.model.constraint_count > 0 && held.contains(&true) {
+            true => self.close_loops_holding(&held),
+            false => true,
+        };
         self.close_loops();
         if self.model.constraint_count > 0 {
             self.dynamics
                 .project_velocity(&self.model, &self.kin, &mut self.v);
         }
+        held_closed
     }
 
     /// Gauss–Newton on the coordinates not `held` until the loops close; leaves q as it was if
-    /// they cannot (the held ones fix the loop, or the iteration does not converge).
-    fn close_loops_holding(&mut self, held: &[bool]) {
+    /// they cannot (the held ones fix the loop, or the iteration does not converge), and says
+    /// whether they closed.
+    fn close_loops_holding(&mut self, held: &[bool]) -> bool {
         let n = self.q.len();
         let start = self.q.clone();
         let mut dq = vec![0.0; n];
@@ -144,7 +148,8 @@ impl ExactEngine {
             self.dynamics.constraints(&self.model, &self.kin, None);
             let residual = (self.dynamics.phi.iter()).fold(0.0, |m: f64, p| m.max(p.abs()));
             if residual <= CLOSURE_TOLERANCE {
-                return self.hold_velocities(held);
+                self.hold_velocities(held);
+                return true;
             }
             let (phi, g) = (&self.dynamics.phi, &self.dynamics.g);
             if !residual.is_finite() || !held_correction(phi, g, n, held, &mut dq) {
@@ -155,6 +160,7 @@ impl ExactEngine {
             }
         }
         self.q = start;
+        false
     }
 
     /// Makes the free velocities consistent with the loops, the held ones kept: v_F −=

@@ -307,10 +307,11 @@ impl RapierEngine {
 
     /// Puts tree joints (index, position, velocity; URDF sense) in a starting state with the
     /// loops closed and the velocities consistent with them: the exact engine computes that
-    /// state (Gauss–Newton closure, mass-weighted projection), Rapier takes it over.
-    pub fn set_joint_states(&mut self, states: &[(usize, f64, f64)]) {
+    /// state (Gauss–Newton closure, mass-weighted projection), Rapier takes it over. Returns
+    /// whether the joints given were held.
+    pub fn set_joint_states(&mut self, states: &[(usize, f64, f64)]) -> bool {
         let mut exact = ExactEngine::new(&self.mechanism, self.settings);
-        exact.set_joint_states(states);
+        let held = exact.set_joint_states(states);
         let mut state = MechanismState::default();
         exact.read_state(&mut state);
         let multibodies = &mut self.world.multibodies;
@@ -336,6 +337,7 @@ impl RapierEngine {
                 mb.update_rigid_bodies(&mut self.world.bodies, true);
             }
         }
+        held
     }
 
     /// Applies one step's joint efforts (per tree joint, URDF sign; N·m or N) and loads, then

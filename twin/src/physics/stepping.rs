@@ -56,8 +56,9 @@ impl Physics {
     }
 
     /// Puts tree joints (index, position, velocity; URDF sense) in a starting state, then closes
-    /// the loops and makes the velocities consistent with them.
-    pub fn set_joint_states(&mut self, states: &[(usize, f64, f64)]) {
+    /// the loops and makes the velocities consistent with them: the joints given held where the
+    /// others can close the loops, which it returns (otherwise every joint moves).
+    pub fn set_joint_states(&mut self, states: &[(usize, f64, f64)]) -> bool {
         match &mut self.stepper {
             Stepper::Exact(engine, _) => engine.set_joint_states(states),
             Stepper::Rapier(engine) => engine.set_joint_states(states),

@@ -180,7 +180,7 @@ impl Twin {
             reason,
         };
         scenario.plant.apply(&mut mechanism).map_err(binding)?;
-        let initial = initial_states(scenario, &mechanism).map_err(binding)?;
+        let initial = initial_states(scenario, &mut mechanism).map_err(binding)?;
         let contacts = contact_detector(scenario, &mechanism).map_err(binding)?;
         let mut machine =
             build_machine(scenario, &mechanism).map_err(|source| TwinError::Machine {
@@ -367,7 +367,8 @@ impl Twin {
     }
 
     /// What the URDF holds that the twin left out or read in its own way (a `<frame>`, a weld
-    /// to `world`, an offset along the joints' axis), one line each, naming the element.
+    /// to `world`, an offset along the joints' axis), one line each, naming the element; and an
+    /// `[initial]` state the loops could not close as given.
     pub fn urdf_notes(&self) -> &[String] {
         &self.mechanism.notes
     }
@@ -687,14 +688,13 @@ fn contact_detector(scenario: &Scenario, mechanism: &Mechanism) -> Result<Contac
 }
 
 /// The scenario's `[initial]` entries as (tree joint, position, velocity); a name the URDF lacks
-/// or a fixed joint is an error naming the entry.
+/// or a fixed joint is an error naming the entry. A state the loops cannot close as given adds
+/// a note to the mechanism's.
 fn initial_states(
     scenario: &Scenario,
-    mechanism: &Mechanism,
+    mechanism: &mut Mechanism,
 ) -> Result<Vec<(usize, f64, f64)>, String> {
-    scenario
-        .initial
-        .iter()
+    let initial = (scenario.initial.iter())
         .map(|(name, state)| {
             let joint = mechanism
                 .joint_index(name)
@@ -702,7 +702,35 @@ fn initial_states(
                 .ok_or_else(|| format!("initial.{name}: the URDF has no moving joint `{name}`"))?;
             Ok((joint, state.position, state.velocity))
         })
-        .collect()
+        .collect::<Result<Vec<_>, String>>()?;
+    let note = unheld_initial(scenario, mechanism, &initial);
+    mechanism.notes.extend(note);
+    Ok(initial)
+}
+
+/// A note when the scenario's `[initial]` joints cannot all be held while the loops close
+/// (given inconsistently, or every joint of a loop): the run then starts from the nearest closed
+/// configuration, every joint moved, mass-weighted.
+fn unheld_initial(
+    scenario: &Scenario,
+    mechanism: &Mechanism,
+    initial: &[(usize, f64, f64)],
+) -> Option<String> {
+    if mechanism.loops.is_empty() || initial.is_empty() {
+        return None;
+    }
+    let settings = crate::physics::SolverSettings::exact(scenario.dt, scenario.gravity, 1);
+    let mut physics = crate::physics::Physics::new(mechanism, settings);
+    if physics.set_joint_states(initial) {
+        return None;
+    }
+    let names: Vec<&str> = (initial.iter())
+        .map(|&(j, _, _)| mechanism.joints[j].name.as_str())
+        .collect();
+    Some(format!(
+        "[initial]: the loops cannot close with {} where the scenario puts them; the run starts from the nearest closed configuration, every joint moved (name fewer joints to hold them)",
+        names.join(", ")
+    ))
 }
 
 /// The scenario's `[points]` as (name, link, where on the link in the plane); a point on a link
