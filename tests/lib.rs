@@ -45,12 +45,37 @@ pub fn refusal(builder: ScenarioBuilder) -> Option<String> {
     }
 }
 
-/// A fresh, empty folder under the target's temp dir for one test.
-pub fn scratch(test: &str) -> PathBuf {
+/// A fresh, empty folder under the system's temp dir for one test.
+pub fn scratch(test: &str) -> Scratch {
     let dir = std::env::temp_dir().join(format!("twin-tests-{}-{test}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).expect("temp dir");
-    dir
+    Scratch(dir)
+}
+
+/// A test's folder: removed when it goes out of scope on a passing test, kept when the test
+/// fails (it is panicking then) so that what the run wrote can be read.
+pub struct Scratch(PathBuf);
+
+impl Drop for Scratch {
+    fn drop(&mut self) {
+        if !std::thread::panicking() {
+            let _ = std::fs::remove_dir_all(&self.0);
+        }
+    }
+}
+
+impl std::ops::Deref for Scratch {
+    type Target = std::path::Path;
+    fn deref(&self) -> &std::path::Path {
+        &self.0
+    }
+}
+
+impl AsRef<std::path::Path> for Scratch {
+    fn as_ref(&self) -> &std::path::Path {
+        &self.0
+    }
 }
 
 /// A source of uniform draws in [0, 1).

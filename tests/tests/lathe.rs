@@ -252,7 +252,7 @@ fn analyze_command_names_bad_requests() {
         max_force: 5000.0,
         grid: 2,
         duration: 5.0,
-        out_dir: Some(dir.clone()),
+        out_dir: Some(dir.to_path_buf()),
         scenario: "milling-constant-15000".into(),
         values: twin_cli::flags::SetFlag { set: Vec::new() },
         rpm: vec![10_000.0, 25_000.0],

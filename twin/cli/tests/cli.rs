@@ -4,14 +4,14 @@
 mod common;
 
 use common::twin;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
-fn scratch(test: &str) -> PathBuf {
+fn scratch(test: &str) -> common::Scratch {
     common::scratch("cli", test)
 }
 
 /// Runs a failing command and checks its one-line error mentions every `part`.
-fn fails_naming(args: &[&str], parts: &[&str], test: &str) -> PathBuf {
+fn fails_naming(args: &[&str], parts: &[&str], test: &str) -> common::Scratch {
     let dir = scratch(test);
     let output = twin(args, &dir);
     let stderr = String::from_utf8_lossy(&output.stderr);

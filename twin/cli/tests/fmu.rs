@@ -5,9 +5,8 @@
 mod common;
 
 use common::twin;
-use std::path::PathBuf;
 
-fn scratch(test: &str) -> PathBuf {
+fn scratch(test: &str) -> common::Scratch {
     let dir = common::scratch("fmu", test);
     // Stands for the shared library: the packing copies its bytes.
     std::fs::write(dir.join("lib.so"), b"\x7fELF stand-in").unwrap();

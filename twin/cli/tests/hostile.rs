@@ -9,7 +9,7 @@ use std::path::Path;
 use std::process::Output;
 use std::time::{Duration, Instant};
 
-fn scratch(test: &str) -> std::path::PathBuf {
+fn scratch(test: &str) -> common::Scratch {
     common::scratch("hostile", test)
 }
 

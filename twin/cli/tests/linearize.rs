@@ -4,9 +4,8 @@
 mod common;
 
 use common::twin;
-use std::path::PathBuf;
 
-fn scratch(test: &str) -> PathBuf {
+fn scratch(test: &str) -> common::Scratch {
     common::scratch("linearize", test)
 }
 

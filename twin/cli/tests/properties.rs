@@ -10,7 +10,7 @@ mod common;
 use common::twin;
 use proptest::prelude::*;
 use proptest::test_runner::{Config, TestCaseError, TestRunner};
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::Output;
 
 /// (scenario, its TOML, its URDF): each shipped URDF with a scenario that uses it.
@@ -60,7 +60,7 @@ fn config() -> Config {
 }
 
 /// A fresh folder per case (cases of one property share a process).
-fn scratch() -> PathBuf {
+fn scratch() -> common::Scratch {
     use std::sync::atomic::{AtomicUsize, Ordering};
     static NEXT: AtomicUsize = AtomicUsize::new(0);
     common::scratch("prop", &NEXT.fetch_add(1, Ordering::Relaxed).to_string())

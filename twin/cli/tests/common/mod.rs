@@ -47,11 +47,42 @@ pub fn twin<S: AsRef<std::ffi::OsStr>>(args: &[S], cwd: &Path) -> Output {
 }
 
 /// A fresh folder for one test.
-pub fn scratch(group: &str, test: &str) -> PathBuf {
+pub fn scratch(group: &str, test: &str) -> Scratch {
     let dir = std::env::temp_dir().join(format!("twin-{group}-{}-{test}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
-    dir
+    Scratch(dir)
+}
+
+/// A test's folder: removed when it goes out of scope on a passing test, kept when the test
+/// fails (it is panicking then) so that what the command wrote can be read.
+pub struct Scratch(PathBuf);
+
+impl Drop for Scratch {
+    fn drop(&mut self) {
+        if !std::thread::panicking() {
+            let _ = std::fs::remove_dir_all(&self.0);
+        }
+    }
+}
+
+impl std::ops::Deref for Scratch {
+    type Target = Path;
+    fn deref(&self) -> &Path {
+        &self.0
+    }
+}
+
+impl AsRef<Path> for Scratch {
+    fn as_ref(&self) -> &Path {
+        &self.0
+    }
+}
+
+impl AsRef<std::ffi::OsStr> for Scratch {
+    fn as_ref(&self) -> &std::ffi::OsStr {
+        self.0.as_os_str()
+    }
 }
 
 /// `rerun rrd verify` with the CLI `scripts/test-tools` provides; a missing CLI fails the test.
