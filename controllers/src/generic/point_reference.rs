@@ -133,9 +133,8 @@ impl PointFollower {
         let wanted = DVector::from_iterator(samples.len(), samples.iter().map(|s| s.position));
         let rates = DVector::from_iterator(samples.len(), samples.iter().map(|s| s.rate));
         let solved = self.solve(&mut q, &wanted);
-        let jacobian = self.jacobian(&q);
-        let q_rates = (jacobian.as_ref().filter(|_| solved.is_some()))
-            .and_then(|j| least_motion(j, &rates))
+        let q_rates = (solved.and_then(|_| self.jacobian(&q)))
+            .and_then(|j| least_motion(&j, &rates))
             .unwrap_or_else(|| DVector::zeros(self.moved.len()));
         // Short of the path (out of reach), the nearest place the steps found, if the loops
         // close there.
