@@ -2,6 +2,8 @@
 //! others move. A five-bar started at both crank angles starts there, its elbows placed to
 //! close the loop; the mass-weighted correction of a step would move the cranks too.
 
+use nalgebra::{DMatrix, DVector};
+
 /// The least correction of the free coordinates (`held[i]` false) that brings the constraints
 /// `phi` to zero to first order, given their Jacobian `g` (rows of `n`, row-major): dq_F =
 /// −G_Fᵀ (G_F G_Fᵀ)⁻¹ φ, into `dq` (held entries 0). False when the free coordinates cannot
@@ -15,62 +17,23 @@ pub(super) fn held_correction(
     dq: &mut [f64],
 ) -> bool {
     let rows = phi.len();
-    let free = |row: &[f64]| -> Vec<f64> {
-        (row.iter().zip(held))
-            .map(|(&x, &h)| if h { 0.0 } else { x })
-            .collect()
-    };
-    let g_free: Vec<Vec<f64>> = (0..rows).map(|r| free(&g[r * n..(r + 1) * n])).collect();
-    let mut a: Vec<Vec<f64>> = (0..rows)
-        .map(|i| {
-            (0..rows)
-                .map(|j| g_free[i].iter().zip(&g_free[j]).map(|(x, y)| x * y).sum())
-                .collect()
-        })
-        .collect();
-    let Some(y) = solve(&mut a, phi.to_vec()) else {
+    let g_free = DMatrix::from_fn(rows, n, |r, c| if held[c] { 0.0 } else { g[r * n + c] });
+    let normal = &g_free * g_free.transpose();
+    let scale = normal.amax();
+    if scale == 0.0 || !scale.is_finite() {
+        return false;
+    }
+    let lu = normal.lu();
+    // Singular to working precision: a pivot below 1e-12 of the largest entry.
+    if lu.u().diagonal().iter().any(|p| p.abs() < 1e-12 * scale) {
+        return false;
+    }
+    let Some(y) = lu.solve(&DVector::from_column_slice(phi)) else {
         return false;
     };
-    dq[..n].fill(0.0);
-    for (row, &yr) in g_free.iter().zip(&y) {
-        for (d, &gr) in dq.iter_mut().zip(row) {
-            *d -= gr * yr;
-        }
-    }
+    let correction = -(g_free.transpose() * y);
+    dq[..n].copy_from_slice(correction.as_slice());
     true
-}
-
-/// Solves a·x = b by Gaussian elimination with partial pivoting; `None` when a pivot is below
-/// 1e-12 of the largest entry (singular).
-fn solve(a: &mut [Vec<f64>], mut b: Vec<f64>) -> Option<Vec<f64>> {
-    let m = b.len();
-    let scale = (a.iter().flatten()).fold(0.0_f64, |s, x| s.max(x.abs()));
-    if scale == 0.0 || !scale.is_finite() {
-        return None;
-    }
-    for k in 0..m {
-        let pivot = (k..m).max_by(|&i, &j| a[i][k].abs().total_cmp(&a[j][k].abs()))?;
-        if a[pivot][k].abs() < 1e-12 * scale {
-            return None;
-        }
-        a.swap(k, pivot);
-        b.swap(k, pivot);
-        let (top, bottom) = a.split_at_mut(k + 1);
-        let (pivot_row, bk) = (&top[k], b[k]);
-        for (row, bi) in bottom.iter_mut().zip(&mut b[k + 1..]) {
-            let f = row[k] / pivot_row[k];
-            for (x, p) in row[k..].iter_mut().zip(&pivot_row[k..]) {
-                *x -= f * p;
-            }
-            *bi -= f * bk;
-        }
-    }
-    let mut x = vec![0.0; m];
-    for k in (0..m).rev() {
-        let sum: f64 = (k + 1..m).map(|j| a[k][j] * x[j]).sum();
-        x[k] = (b[k] - sum) / a[k][k];
-    }
-    Some(x)
 }
 
 #[cfg(test)]
