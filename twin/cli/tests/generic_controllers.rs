@@ -5,8 +5,7 @@
 
 mod common;
 
-use common::{scratch, twin};
-use std::collections::HashMap;
+use common::{cells, columns, scratch, twin};
 use std::path::{Path, PathBuf};
 
 fn repo() -> PathBuf {
@@ -28,29 +27,6 @@ fn ok(output: &std::process::Output) -> String {
 fn refused(output: &std::process::Output) -> String {
     assert!(!output.status.success(), "ran, and should not have");
     String::from_utf8_lossy(&output.stderr).into_owned()
-}
-
-/// A run CSV's cells by column name (without the unit), as written.
-fn cells(path: &Path) -> HashMap<String, Vec<String>> {
-    let text = std::fs::read_to_string(path).unwrap();
-    let mut lines = text.lines();
-    let names: Vec<String> = (lines.next().unwrap().split(','))
-        .map(|h| h.split(" [").next().unwrap().to_string())
-        .collect();
-    let mut table: HashMap<String, Vec<String>> = HashMap::new();
-    for line in lines {
-        for (name, cell) in names.iter().zip(line.split(',')) {
-            table.entry(name.clone()).or_default().push(cell.into());
-        }
-    }
-    table
-}
-
-/// A run CSV's columns of numbers by name.
-fn columns(path: &Path) -> HashMap<String, Vec<f64>> {
-    (cells(path).into_iter())
-        .map(|(name, column)| (name, column.iter().map(|c| c.parse().unwrap()).collect()))
-        .collect()
 }
 
 #[test]

@@ -134,18 +134,22 @@ pub fn error_lines(stderr: &str) -> usize {
 
 /// A run CSV's columns by name (without the unit), each a column of numbers.
 pub fn columns(path: &Path) -> HashMap<String, Vec<f64>> {
+    (cells(path).into_iter())
+        .map(|(name, column)| (name, column.iter().map(|c| c.parse().unwrap()).collect()))
+        .collect()
+}
+
+/// A run CSV's cells by column name (units left off), as written: for comparing bit for bit.
+pub fn cells(path: &Path) -> HashMap<String, Vec<String>> {
     let text = std::fs::read_to_string(path).unwrap();
     let mut lines = text.lines();
     let names: Vec<String> = (lines.next().unwrap().split(','))
         .map(|h| h.split(" [").next().unwrap().to_string())
         .collect();
-    let mut table: HashMap<String, Vec<f64>> = HashMap::new();
+    let mut table: HashMap<String, Vec<String>> = HashMap::new();
     for line in lines {
         for (name, cell) in names.iter().zip(line.split(',')) {
-            table
-                .entry(name.clone())
-                .or_default()
-                .push(cell.parse().unwrap());
+            table.entry(name.clone()).or_default().push(cell.into());
         }
     }
     table
