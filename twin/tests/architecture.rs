@@ -64,14 +64,40 @@ fn references(module: &[String], text: &str) -> BTreeSet<Vec<String>> {
             }
         }
     };
-    for (at, _) in text.match_indices("crate::") {
-        found.insert(words(&text[at + 7..]));
+    let parent = &module[..module.len().saturating_sub(1)];
+    for (prefix, base) in [("crate::", &[][..]), ("super::", parent)] {
+        for (at, _) in text.match_indices(prefix) {
+            for item in items(&text[at + prefix.len()..]) {
+                let mut path = base.to_vec();
+                path.extend(words(item));
+                found.insert(path);
+            }
+        }
     }
-    for (at, _) in text.match_indices("super::") {
-        let parent = &module[..module.len().saturating_sub(1)];
-        let mut path = parent.to_vec();
-        path.extend(words(&text[at + 7..]));
-        found.insert(path);
+    found
+}
+
+/// The paths a `use` names after its prefix: `a::b` alone, or each item of `{a::b, c, D}`
+/// (braces nested within an item kept with it).
+fn items(rest: &str) -> Vec<&str> {
+    let Some(inner) = rest.strip_prefix('{') else {
+        return vec![rest];
+    };
+    let (mut depth, mut start, mut found) = (0, 0, Vec::new());
+    for (i, c) in inner.char_indices() {
+        match c {
+            '{' => depth += 1,
+            '}' if depth == 0 => {
+                found.push(inner[start..i].trim_start());
+                return found;
+            }
+            '}' => depth -= 1,
+            ',' if depth == 0 => {
+                found.push(inner[start..i].trim_start());
+                start = i + 1;
+            }
+            _ => {}
+        }
     }
     found
 }
@@ -164,6 +190,43 @@ fn no_module_imports_another_that_imports_it_back() {
     assert!(graph(&workspace().join("twin/src")).len() > 20);
 }
 
+/// A file under a folder reaches what its siblings define through their modules
+/// (`super::spec::Scenario`), never through the folder's `mod.rs` re-exports (`super::Scenario`):
+/// a `mod.rs` declares its files, so a reference back into it would hide the edge between the
+/// two siblings from the circle check above. A folder's tests may read the folder as a whole.
+/// The engine's rule (its `mod.rs` files only declare); the controllers', models' and command
+/// line's folders still define in their `mod.rs` what their files share.
+#[test]
+fn no_file_reaches_its_siblings_through_the_folders_mod_rs() {
+    let mut checked = 0;
+    let root = workspace().join("twin/src");
+    for file in sources(&root) {
+        let stem = file.file_stem().map(|s| s.to_string_lossy().into_owned());
+        if stem
+            .as_deref()
+            .is_none_or(|s| s == "tests" || s.ends_with("_tests"))
+        {
+            continue;
+        }
+        let module = module_of(&root, &file);
+        let text = std::fs::read_to_string(&file).unwrap();
+        let code = text.split("#[cfg(test)]").next().unwrap_or_default();
+        for target in references(&module, code) {
+            let folder = root.join(target.join("/"));
+            let ancestor =
+                !target.is_empty() && target.len() < module.len() && module.starts_with(&target);
+            assert!(
+                !(ancestor && folder.join("mod.rs").is_file()),
+                "{}: refers to `{}` through its mod.rs: name the file that defines it",
+                file.display(),
+                target.join("::")
+            );
+            checked += 1;
+        }
+    }
+    assert!(checked > 100, "{checked} references");
+}
+
 /// The names a crate root (`lib.rs` or `main.rs`) defines itself, rather than declares or
 /// re-exports: functions, types, constants and statics.
 fn defined_at_root(text: &str) -> Vec<String> {
@@ -230,10 +293,6 @@ fn no_module_uses_what_its_crate_root_defines() {
     }
 }
 
-/// The engine's folders whose `mod.rs` still defines what its files use (to be split as
-/// `run/`, `machines/`, `data/`, `calibration/`, `shadowing/`, `linear/` and `physics/` were).
-const MOD_RS_THAT_STILL_DEFINE: [&str; 2] = ["recording", "scenario"];
-
 /// A folder's `mod.rs` only declares its files and re-exports: what the library shows
 /// (`twin::data`, `twin::calibration`, `twin::shadowing`) is named like its folder, and no file
 /// reaches back into its parent for what the parent defines.
@@ -246,9 +305,7 @@ fn the_engines_mod_rs_files_only_declare_and_re_export() {
         let Some(folder) = folder.map(|f| f.to_string_lossy().into_owned()) else {
             continue;
         };
-        if file.file_name().is_none_or(|n| n != "mod.rs")
-            || MOD_RS_THAT_STILL_DEFINE.contains(&folder.as_str())
-        {
+        if file.file_name().is_none_or(|n| n != "mod.rs") {
             continue;
         }
         let text = std::fs::read_to_string(&file).unwrap();

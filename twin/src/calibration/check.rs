@@ -3,8 +3,8 @@
 //! JᵀWJ), and parameters the data determine only poorly. Refusals are one line naming the
 //! parameters as the user wrote them; the rest are warnings.
 
+use super::error::CalibrationError;
 use super::problem::{Scope, Unknown};
-use super::CalibrationError;
 use nalgebra::DMatrix;
 
 /// A unit change of a parameter (100 % of its scale) moving the weighted outputs by less than

@@ -4,10 +4,11 @@
 //! reference); per signal how far apart they are, over the run and per segment. The same
 //! figures, from the same replays, are a calibration's fit before and after.
 
+use super::error::CalibrationError;
 use super::metrics::{signal_fit, SignalFit};
+use super::options::CalibrationOptions;
 use super::problem::{self, Problem, Scope};
 use super::solve::solve;
-use super::{CalibrationError, CalibrationOptions};
 use crate::data::{DataRate, RunData};
 use crate::scenario::ScenarioBuilder;
 use framework::Registry;

@@ -3,12 +3,13 @@
 //! bounds, the segments, the fitted signals and their noise; the weighted residuals at the
 //! data's own rows and their forward-difference Jacobian, rolled out in parallel.
 
+use super::error::CalibrationError;
 use super::metrics::{noise_level, noise_resolved};
+use super::options::{CalibrationOptions, StartStates};
 use super::replay::{PlantShape, Replayer, Segment};
 use super::segments::{lay_out, Setting};
 use super::start::{Assembly, Placement, Probe};
 use super::threads::{parallel, thread_count};
-use super::{CalibrationError, CalibrationOptions, StartStates};
 use crate::data::{RunData, Trace};
 use crate::run::{Simulator, Twin};
 use crate::scenario::ScenarioBuilder;

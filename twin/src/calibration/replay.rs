@@ -2,7 +2,7 @@
 //! a state read off the data, driven open loop by the run's logged commands (or closed loop by
 //! its own controller following the logged reference), sampled at the control period.
 
-use super::CalibrationError;
+use super::error::CalibrationError;
 use crate::data::{PlantColumns, Trace};
 use crate::run::Simulator;
 use crate::scenario::ScenarioBuilder;

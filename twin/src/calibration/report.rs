@@ -5,11 +5,12 @@
 
 use super::check;
 use super::compare::{fit_states, rate_json, replay, Overlay, RunReplay, SegmentFit};
+use super::error::CalibrationError;
 use super::metrics::{t_quantile_95, SignalFit};
+use super::options::{CalibrationOptions, FitParameter};
 use super::problem::{self, Problem, Scope, Unknown};
 use super::solve::{solve, Iteration, Linearised, Solution};
 use super::verdict::{judge, sandwich, Verdict};
-use super::{CalibrationError, CalibrationOptions, FitParameter};
 use crate::data::{DataRate, RunData, Trace};
 use crate::mechanism::Mechanism;
 use crate::plant::PlantValues;

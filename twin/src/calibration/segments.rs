@@ -3,9 +3,10 @@
 //! positions cannot place the mechanism, each run whole from the scenario's initial state, said
 //! in one line with the reason and what to log.
 
+use super::error::CalibrationError;
+use super::options::DEFAULT_SEGMENT;
 use super::replay::{Replayer, Segment};
 use super::start::{Assembly, Placement, Probe};
-use super::{CalibrationError, DEFAULT_SEGMENT};
 use crate::data::Trace;
 
 /// Fewest samples a segment may have: a start state and its first moves.

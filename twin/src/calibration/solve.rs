@@ -2,8 +2,8 @@
 //! coordinates, Marquardt's diagonal damping, each trial point clipped into the bounds and kept
 //! only when it lowers the cost.
 
+use super::error::CalibrationError;
 use super::problem::Problem;
-use super::CalibrationError;
 use nalgebra::{DMatrix, DVector};
 use serde::Serialize;
 

@@ -6,9 +6,13 @@
 //! a cubic through the rows around the gap. The columns the plant does not know are left out
 //! and named, or refused when reading is strict.
 
+use super::error::DataError;
+use super::measured::RunData;
+use super::plant_columns::PlantColumns;
 use super::reading::unread_error;
+use super::trace::{DataRate, Trace};
 use super::units::{factor, missing, to_si};
-use super::{ColumnRole, DataError, DataRate, PlantColumns, RunData, Trace};
+use crate::recording::ColumnRole;
 
 /// Most grid points a resampling makes (about 400 MB per column): a period far below the data's
 /// own would otherwise ask for more memory than there is.

@@ -6,8 +6,10 @@
 //! writes it: comma separated, `name [unit]` headers, values in Rust's shortest round-trip form
 //! of an `f64`.
 
+use super::error::DataError;
+use super::measured::RunData;
+use super::options::Delimiter;
 use super::reading::RawTable;
-use super::{DataError, Delimiter, RunData};
 
 /// How the file's lines are cut into cells: the separator, and whether it was given
 /// (`--delimiter`) or read from the header.

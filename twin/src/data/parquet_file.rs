@@ -11,8 +11,9 @@ use parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder;
 use parquet::arrow::ArrowWriter;
 
 use super::csv_file::{check_shape, split_header};
+use super::error::DataError;
+use super::measured::RunData;
 use super::reading::RawTable;
-use super::{DataError, RunData};
 
 /// Parses the Parquet `bytes` of `file` into its columns; a column with a null or of values
 /// that are not numbers is kept unread.

@@ -3,9 +3,10 @@
 //! its values finite and strictly increasing; another column with a value that is not a finite
 //! number kept apart, unread).
 
+use super::error::DataError;
 use super::measured::header;
+use super::measured::{DataColumn, RunData, UnreadColumn};
 use super::units;
-use super::{DataColumn, DataError, RunData, UnreadColumn};
 use std::path::Path;
 
 /// Largest data file read, bytes (1 GiB): far above an hour of a machine's signals at 1 kHz in

@@ -9,8 +9,10 @@
 
 use std::path::Path;
 
+use super::error::DataError;
+use super::plant_columns::PlantColumns;
 use super::reading::RawTable;
-use super::{ColumnRole, DataError, PlantColumns};
+use crate::recording::ColumnRole;
 use crate::recording::{read_signals, RecordingError};
 
 /// The run's columns in the recording `path` (named `file` in errors), from its `bytes`:

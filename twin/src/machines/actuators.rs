@@ -6,7 +6,7 @@
 //! drive the arm's joints have, [`models::drive`]). `[actuators."*"]` speaks for every actuator
 //! of the machine; a joint's own entry overrides it.
 
-use super::MachineError;
+use super::error::MachineError;
 use crate::mechanism::Mechanism;
 use framework::Actuator;
 use models::drive::DriveParams;

@@ -75,7 +75,9 @@ mod figures;
 mod spindle;
 
 use super::actuators::{kind_of, ActuatorKind, ActuatorSpecs};
-use super::{effort_unit, joint, link, process_params, Machine, MachineError};
+use super::error::MachineError;
+use super::machine::{effort_unit, Machine};
+use super::parts::{joint, link, process_params};
 use crate::mechanism::Mechanism;
 use crate::physics::{Load, MechanismState, NO_DAMPING, NO_STIFFNESS};
 use crate::scene::{colors, Bounds, Drawing, Marker, MarkerSource, Scene};

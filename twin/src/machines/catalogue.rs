@@ -1,9 +1,10 @@
 //! The machines the twin knows by name, each built from a scenario's tables.
 
-use super::{
-    actuators, arm, feed_axis, generic, lathe, milling, platform, whitworth, ActuatorSpecs,
-    Machine, MachineError, PointSpecs, GENERIC,
-};
+use super::actuators::ActuatorSpecs;
+use super::error::MachineError;
+use super::generic::{PointSpecs, GENERIC};
+use super::machine::Machine;
+use super::{actuators, arm, feed_axis, generic, lathe, milling, platform, whitworth};
 use crate::mechanism::Mechanism;
 
 /// Names of the machines the twin knows.

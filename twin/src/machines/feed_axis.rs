@@ -26,7 +26,9 @@
 //! magnitude and σ, the columns of Table I (see `twin::evaluate`).
 
 use super::actuators::{kind_of, ActuatorKind, ActuatorSpecs};
-use super::{default_joint_signals, joint, process_params, Machine, MachineError};
+use super::error::MachineError;
+use super::machine::{default_joint_signals, Machine};
+use super::parts::{joint, process_params};
 use crate::mechanism::{Joint, JointMotion, Mechanism, Pose2};
 use crate::physics::{Load, MechanismState, NO_DAMPING, NO_STIFFNESS};
 use crate::scene::{colors, Bounds, Drawing, Marker, MarkerSource, Scene};

@@ -7,10 +7,12 @@
 //! scenario says otherwise ([`super::actuators`]).
 
 use super::actuators::ActuatorSpecs;
+use super::error::MachineError;
 use super::force_table::ForceTable;
 use super::joint_drives::JointDrives;
 use super::machine::effort_unit;
-use super::{link, Machine, MachineError};
+use super::machine::Machine;
+use super::parts::link;
 use crate::mechanism::Mechanism;
 use crate::physics::{Load, MechanismState, NO_DAMPING, NO_STIFFNESS};
 use crate::scene::{colors, Bounds, Marker, MarkerSource, Scene};

@@ -3,7 +3,7 @@
 //! scenario's data sheet (`[actuators.<joint>] kind = "dc-servo"`), whose command is a current.
 
 use super::actuators::{key_of, spec_of, ActuatorKind, ActuatorSpecs};
-use super::MachineError;
+use super::error::MachineError;
 use crate::mechanism::Mechanism;
 use crate::physics::MechanismState;
 use framework::{Actuator, SignalSpec, Unit};

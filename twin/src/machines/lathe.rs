@@ -16,7 +16,9 @@
 //! The cutting force acts on the slide against its feed and, tangentially at the cut diameter, on
 //! the part against its rotation: a torque F_i D_i / 2 on the spindle.
 
-use super::{joint, process_params, Machine, MachineError};
+use super::error::MachineError;
+use super::machine::Machine;
+use super::parts::{joint, process_params};
 use crate::mechanism::{JointMotion, Mechanism};
 use crate::physics::{Load, MechanismState, NO_DAMPING, NO_STIFFNESS};
 use crate::scene::{colors, Bounds, Drawing, Marker, MarkerSource, Scene};

@@ -12,9 +12,9 @@
 //! the same angle), and the diagnostics `cutting_force_x`, `cutting_force_y` (N),
 //! `spindle_cutting_torque` (N·m), `chip_thickness` (m, the thickest chip) and `flutes_cutting`.
 
-use super::{
-    default_joint_signals, joint, process_params, Excitation, Machine, MachineError, Stability,
-};
+use super::error::MachineError;
+use super::machine::{default_joint_signals, Excitation, Machine, Stability};
+use super::parts::{joint, process_params};
 use crate::mechanism::{Joint, JointMotion, Mechanism};
 use crate::physics::{Load, MechanismState, NO_DAMPING, NO_STIFFNESS};
 use crate::scene::{colors, Bounds, Drawing, Marker, MarkerSource, Scene};

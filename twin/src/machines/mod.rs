@@ -22,5 +22,4 @@ pub use catalogue::build;
 pub use error::MachineError;
 pub use force_table::ForceTable;
 pub use generic::{PointAt, PointSpec, PointSpecs, SpringSpec, GENERIC};
-pub use machine::{default_joint_signals, effort_unit, Excitation, Machine, Stability};
-pub(crate) use parts::{joint, link, process_params};
+pub use machine::{effort_unit, Excitation, Machine, Stability};

@@ -1,7 +1,7 @@
 //! What every machine reads from its scenario and mechanism alike: its `[process]` table, and
 //! its joints and links by name, each failing with the entry or the part it could not find.
 
-use super::MachineError;
+use super::error::MachineError;
 use crate::mechanism::Mechanism;
 
 /// Reads a machine's `[process]` table into its parameter struct; the error quotes the bad entry.

@@ -21,7 +21,9 @@
 mod motor;
 
 use super::actuators::{key_of, kind_of, ActuatorKind, ActuatorSpecs};
-use super::{link, process_params, Machine, MachineError};
+use super::error::MachineError;
+use super::machine::Machine;
+use super::parts::{link, process_params};
 use crate::mechanism::{wrap_angle, Mechanism, Pose2};
 use crate::physics::{Load, MechanismState, NO_DAMPING, NO_STIFFNESS};
 use crate::scene::{colors, Bounds, Drawing, Marker, MarkerSource, Scene};

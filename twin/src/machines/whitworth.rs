@@ -4,7 +4,9 @@
 
 mod cutting;
 
-use super::{joint, link, process_params, Machine, MachineError};
+use super::error::MachineError;
+use super::machine::Machine;
+use super::parts::{joint, link, process_params};
 use crate::mechanism::Mechanism;
 use crate::physics::{Load, MechanismState, NO_DAMPING, NO_STIFFNESS};
 use crate::scene::{colors, Bounds, Drawing, Marker, MarkerSource, Scene};

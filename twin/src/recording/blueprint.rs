@@ -16,7 +16,8 @@ use rerun::external::re_sdk_types::components::Name;
 use rerun::external::re_sdk_types::datatypes::{Bool, Float32, Range2D, UInt32};
 use rerun::{AsComponents, RecordingStream, RecordingStreamBuilder};
 
-use super::{PlotSpec, PlotTab, EVENTS, MECHANISM, SCENARIO, SIM_TIME, SUMMARY};
+use super::entities::{EVENTS, MECHANISM, SCENARIO, SIM_TIME, SUMMARY};
+use super::layout::{PlotSpec, PlotTab};
 use crate::scene::Bounds;
 
 /// Up to this many plots are stacked in one column of a tab; more go into a two-column grid.
@@ -307,7 +308,7 @@ pub(super) fn send(
     root: Node,
     timeline: Option<&str>,
 ) -> Result<(), String> {
-    let error = |err: rerun::RecordingStreamError| super::error_chain(&err);
+    let error = |err: rerun::RecordingStreamError| super::error::error_chain(&err);
     let (blueprint, storage) = RecordingStreamBuilder::new(app.clone())
         .recording_id(format!("{app}-blueprint"))
         .blueprint()
@@ -342,7 +343,7 @@ pub(super) fn send(
     log_panels(&blueprint, timeline).map_err(error)?;
     blueprint
         .flush_blocking()
-        .map_err(|err| super::error_chain(&err))?;
+        .map_err(|err| super::error::error_chain(&err))?;
     let messages: Vec<LogMsg> = storage.take();
     let Some(blueprint_id) = messages.first().map(|m| m.store_id().clone()) else {
         return Err("the layout produced no messages".to_owned());
@@ -352,7 +353,7 @@ pub(super) fn send(
     let flush = |stream: &RecordingStream| {
         stream
             .flush_blocking()
-            .map_err(|err| super::error_chain(&err))
+            .map_err(|err| super::error::error_chain(&err))
     };
     flush(stream)?;
     stream.send_blueprint(

@@ -12,7 +12,8 @@ use rerun::{
     TimeColumn,
 };
 
-use super::{error_chain, MAX_TRACE_POINTS, SIM_TIME, STEP};
+use super::entities::{MAX_TRACE_POINTS, SIM_TIME, STEP};
+use super::error::error_chain;
 use framework::Unit;
 
 /// A link's buffered world poses.

@@ -5,9 +5,11 @@ use rerun::archetypes::{LineStrips2D, Points2D, SeriesLines, TextDocument, Trans
 use rerun::components::{Color, MediaType, Radius};
 use rerun::{EntityPath, EntityPathPart, RecordingStream};
 
+use super::entities::{MECHANISM, SCENARIO};
+use super::error::error_chain;
 use super::layout::{PlotSpec, RecordingLayout, SeriesRole};
 use super::signals::column_batches;
-use super::{error_chain, BODY_COLOR, CIRCLE_SEGMENTS, LINK_PALETTE, MECHANISM, SCENARIO};
+use super::style::{BODY_COLOR, CIRCLE_SEGMENTS, LINK_PALETTE};
 use crate::mechanism::{Outline, Shape};
 use crate::scene::{Marker, Scene};
 

@@ -14,7 +14,7 @@ use rerun::external::re_sdk_types::blueprint::components::{ViewClass, VisualBoun
 use rerun::log::{Chunk, LogMsg};
 use rerun::StoreKind;
 
-use super::RecordingError;
+use super::error::RecordingError;
 
 /// What a recording shows, as read back from its file.
 #[derive(Debug, Clone, Default, PartialEq)]

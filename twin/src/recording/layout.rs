@@ -1,8 +1,9 @@
 //! What a recording contains, fixed before the run starts: the links, scene and bodies drawn, and
 //! the plots, each a tab's series of one display unit.
 
-use super::plots::Plot2D;
-use super::{LiveViewer, FIGURES, SIGNALS};
+use super::entities::{FIGURES, SIGNALS};
+use super::live::LiveViewer;
+use super::plot_data::Plot2D;
 use crate::mechanism::Shape;
 use crate::scene::Scene;
 use framework::Unit;

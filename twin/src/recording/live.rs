@@ -16,8 +16,6 @@ use std::time::Duration;
 use rerun::log::LogMsg;
 use rerun::sink::{GrpcSink, LogSink};
 
-use super::LiveViewer;
-
 /// Messages queued for the viewer beyond what Rerun's gRPC sink holds itself (100). A message is
 /// one chunk: at most a few hundred kB, so this bounds the memory a stalled viewer can cost.
 const LIVE_QUEUE: usize = 256;
@@ -120,4 +118,13 @@ fn feed(viewer: GrpcSink, messages: Receiver<LogMsg>, report: SyncSender<Result<
         .map_err(|err| err.to_string());
     // The recorder may have stopped waiting (or been dropped without finishing): nothing to do.
     let _ = report.try_send(flushed);
+}
+
+/// A Rerun viewer watching the run as it happens, besides the file.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum LiveViewer {
+    /// A viewer already listening at this gRPC URL (e.g. `rerun+http://127.0.0.1:9876/proxy`).
+    Connect(String),
+    /// Start a viewer from the `rerun` executable on PATH and stream to it.
+    Spawn,
 }

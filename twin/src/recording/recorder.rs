@@ -13,14 +13,16 @@ use rerun::{EntityPath, RecordingStream, RecordingStreamBuilder, SerializedCompo
 
 use super::columns::{send_marker, send_poses, timeline_columns, Group, LinkPoses, MarkerBuffer};
 use super::drawing::{body_entity, link_entity, log_layout, scene_entity};
+use super::entities::{
+    application_id, COLLISIONS, EVENTS, FLUSH_EVERY, MAX_BYTES_IN_FLIGHT, SUMMARY, TRACE_EVERY,
+};
+use super::error::{error_chain, RecordingError};
 use super::layout::{figure_entity, PlotSpec, RecordingLayout};
 use super::live::LiveHandle;
-use super::plots::{self, Plot2D};
+use super::plot_data::Plot2D;
+use super::plots;
+use super::style::COLLISION_COLOR;
 use super::writer::{FileState, FileWriter, PartFile};
-use super::{
-    application_id, error_chain, event_text, RecordingError, RecordingOutcome, COLLISIONS,
-    COLLISION_COLOR, EVENTS, FLUSH_EVERY, MAX_BYTES_IN_FLIGHT, SUMMARY, TRACE_EVERY,
-};
 use super::{blueprint, live};
 use crate::mechanism::{wrap_angle, Pose2};
 use framework::EventLevel;
@@ -527,4 +529,42 @@ pub(super) fn buffers(layout: &RecordingLayout) -> (Vec<LinkPoses>, Vec<Group>, 
         })
         .collect();
     (links, groups, markers)
+}
+
+/// How a finished recording went.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct RecordingOutcome {
+    /// The complete recording (the path given to [`Recorder::create`]).
+    pub path: PathBuf,
+    /// Its size, bytes.
+    pub bytes: u64,
+    /// Why the live viewer, if any, did not get the whole run. The file is complete regardless: a
+    /// viewer's failure is a warning, never an error.
+    pub live_warning: Option<String>,
+}
+
+/// An event's text as the log shows it: without a leading "warning:" (the level says so), and
+/// wrapped at word boundaries so that long events stay readable.
+pub(super) fn event_text(text: &str) -> String {
+    const WIDTH: usize = 64;
+    let trimmed = text.trim();
+    let body = ["warning:", "Warning:", "WARNING:"]
+        .iter()
+        .find_map(|prefix| trimmed.strip_prefix(prefix))
+        .map_or(trimmed, str::trim_start);
+    let mut out = String::with_capacity(body.len() + body.len() / WIDTH + 1);
+    let mut line = 0;
+    for word in body.split(' ') {
+        let width = word.chars().count();
+        if line > 0 && line + 1 + width > WIDTH {
+            out.push('\n');
+            line = 0;
+        } else if line > 0 {
+            out.push(' ');
+            line += 1;
+        }
+        out.push_str(word);
+        line += width;
+    }
+    out
 }

@@ -11,8 +11,9 @@ use rerun::external::re_log_encoding::{Decodable, DecoderApp, StreamFooter};
 use rerun::log::{Chunk, LogMsg};
 use rerun::{StoreKind, TimelineName};
 
+use super::entities::{SIM_TIME, STEP};
+use super::error::RecordingError;
 use super::writer::PartFile;
-use super::{RecordingError, SIM_TIME, STEP};
 
 /// What [`salvage`] kept.
 #[derive(Debug, Clone, Default, PartialEq)]

@@ -18,8 +18,9 @@ use rerun::external::re_log_encoding::DecoderApp;
 use rerun::log::{Chunk, LogMsg};
 use rerun::{ComponentDescriptor, SerializedComponentBatch, StoreKind, TimelineName};
 
+use super::entities::{SIGNALS, SIM_TIME, STEP};
+use super::error::RecordingError;
 use super::layout::{ColumnRole, PlotSpec};
-use super::{RecordingError, SIGNALS, SIM_TIME, STEP};
 use framework::Unit;
 
 const ARCHETYPE: &str = "twin.columns";

@@ -14,7 +14,7 @@ use rerun::blueprint::{
 use rerun::components::{Color, MediaType, Radius};
 use rerun::RecordingStreamBuilder;
 
-use super::{error_chain, RecordingError};
+use super::error::{error_chain, RecordingError};
 
 /// How many runs fell in each bin of one metric.
 #[derive(Debug, Clone, PartialEq)]

@@ -1,12 +1,14 @@
 //! The recorder: valid .rrd files, refusals naming the path, its cost, salvage, live viewers.
 
 use super::columns::pose_columns;
+use super::entities::*;
+use super::recorder::RecordingOutcome;
 use super::*;
 use crate::mechanism::{wrap_angle, Outline, Pose2, Shape};
 use framework::EventLevel;
 use rerun::archetypes::Transform3D;
 use rerun::components::{RotationAxisAngle, Translation3D};
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::sync::{Arc, Barrier};
 use std::time::{Duration, Instant};
 

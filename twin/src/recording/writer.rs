@@ -20,7 +20,7 @@ use rerun::log::LogMsg;
 use rerun::sink::{LogSink, SinkFlushError};
 use tempfile::TempPath;
 
-use super::error_chain;
+use super::error::error_chain;
 use super::ids::Renumbering;
 use super::live::LiveFeed;
 

@@ -3,7 +3,7 @@
 //! refused without a panic.
 
 use super::data_tests::{loaded, scratch, small_plant, write};
-use super::Twin;
+use super::twin::Twin;
 use crate::data::*;
 use std::path::Path;
 use std::sync::Arc;

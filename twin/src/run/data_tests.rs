@@ -1,8 +1,9 @@
 //! The data format's round trips (CSV, Parquet, a recording), a run's rows written when it is
 //! interrupted, and the unit conversions and resampling checked against hand values.
 
-use super::RunTable;
-use super::{Simulator, StopFlag, Twin};
+use super::simulator::Simulator;
+use super::table::RunTable;
+use super::twin::{StopFlag, Twin};
 use crate::data::sha256_hex;
 use crate::data::*;
 use crate::scenario::Scenario;

@@ -1,7 +1,8 @@
 //! Evaluators: the scenario's `[[metrics]]` computed by observers of the run, beside the other
 //! observers (the recording, the caller's); see `scenario::metrics` for the kinds.
 
-use super::{Findings, Observer, ObserverError, SignalLayout, StepView};
+use super::layout::SignalLayout;
+use super::observer::{Findings, Observer, ObserverError, StepView};
 use crate::scenario::{MetricKind, MetricSpec};
 use crate::spectrum::Spectrum;
 

@@ -16,6 +16,7 @@ mod stats;
 mod summary;
 mod table;
 mod twin;
+mod whole_run;
 
 pub use layout::SignalLayout;
 pub use observer::{Findings, Observer, ObserverError, StepView};
@@ -26,7 +27,7 @@ pub use summary::{
     to_json, to_table, write_json, Divergence, FailureKind, Interruption, RunSummary,
 };
 pub use table::RunTable;
-pub(crate) use twin::{build_machine, effort_kind, framed, observer_error};
+pub(crate) use twin::framed;
 pub use twin::{SetpointSource, StopFlag, Twin, TwinError};
 
 #[cfg(test)]

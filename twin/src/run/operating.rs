@@ -1,10 +1,12 @@
 //! `Twin::linearize`: the scenario run with its controller to an operating time, the efforts
 //! held there, and the plant linearised about that state ([`crate::linear`]).
 
+use super::layout::SignalLayout;
 use super::observer::{Observer, ObserverError, StepView};
 use super::session::Session;
-use super::{build_machine, SignalLayout, Twin};
-use super::{Divergence, TwinError};
+use super::summary::Divergence;
+use super::twin::TwinError;
+use super::twin::{build_machine, Twin};
 use crate::linear::{self, Channel, Description, LinearModel, ModelError, Plant};
 use crate::machines::Machine;
 use crate::mechanism::{JointMotion, Mechanism};

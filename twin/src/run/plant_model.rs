@@ -4,9 +4,9 @@
 //! ([`ScenarioFolder`], read as `twin calibrate` reads measured runs).
 
 use crate::data::{PlantColumns, RunData};
-use crate::mechanism::Mechanism;
+use crate::mechanism::{Joint, JointMotion, Mechanism};
 use crate::physics::{MechanismState, ReducedDynamics};
-use framework::{Coordinate, Dynamics, LoggedEfforts, ScenarioFiles};
+use framework::{Coordinate, Dynamics, EffortKind, LoggedEfforts, ScenarioFiles};
 use std::path::{Path, PathBuf};
 use std::sync::{Mutex, OnceLock};
 
@@ -80,7 +80,7 @@ impl MechanismDynamics {
             let coordinates: Vec<Coordinate> = (reduced.coordinates().iter())
                 .map(|&j| Coordinate {
                     joint: mechanism.joints[j].name.clone(),
-                    kind: super::effort_kind(&mechanism.joints[j]),
+                    kind: effort_kind(&mechanism.joints[j]),
                 })
                 .collect();
             let k = coordinates.len();
@@ -248,5 +248,13 @@ impl ScenarioFiles for ScenarioFolder {
         Ok((data.time.iter().zip(&column.values))
             .map(|(&t, &p)| [t, p * factor])
             .collect())
+    }
+}
+
+/// The effort a joint takes: a force on a prismatic joint, else a torque.
+pub(crate) fn effort_kind(joint: &Joint) -> EffortKind {
+    match joint.motion {
+        JointMotion::Prismatic { .. } => EffortKind::Force,
+        _ => EffortKind::Torque,
     }
 }

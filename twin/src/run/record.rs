@@ -9,7 +9,7 @@
 use super::layout::SignalLayout;
 use super::observer::{Findings, Observer, ObserverError, StepView};
 use super::spectra::{Spectra, SpectraPlan};
-use super::RunSummary;
+use super::summary::RunSummary;
 use crate::mechanism::{Pose2, Shape};
 use crate::physics::Collision;
 use crate::recording::{

@@ -2,7 +2,8 @@
 
 use super::observer::{Observer, StepView};
 use super::stats::Digest;
-use super::{observer_error, Divergence, FailureKind, Interruption, Twin, TwinError};
+use super::summary::{Divergence, FailureKind, Interruption};
+use super::twin::{observer_error, Twin, TwinError};
 use crate::energy::mechanical_energy;
 use crate::faults::PlantChange;
 use crate::mechanism::Pose2;

@@ -4,8 +4,10 @@
 //! runs the run loop's own stages ([`Session::hold`], [`Session::close`]); whole runs keep their
 //! one door, [`Twin::run_with`].
 
+use super::plant_model::effort_kind;
 use super::session::Session;
-use super::{effort_kind, Divergence, Twin, TwinError};
+use super::summary::Divergence;
+use super::twin::{Twin, TwinError};
 use crate::scenario::{LoadedScenario, Scenario};
 use framework::{
     Actuator, Controller, ControllerError, EffortKind, Measurement, PlantInterface, Registry,

@@ -13,8 +13,8 @@
 
 use super::evaluate::Evaluator;
 use super::layout::SignalLayout;
+use super::observer::Observer;
 use super::observer::{ObserverError, StepView};
-use super::Observer;
 use crate::machines::{Excitation, Stability};
 use crate::recording::{Plot2D, PlotAxis, PlotGeometry, PlotLayer};
 use crate::scenario::{MetricKind, MetricSpec};

@@ -3,7 +3,9 @@
 
 use std::path::PathBuf;
 
-use super::{Findings, Observer, ObserverError, SignalLayout, Simulator, StepView};
+use super::layout::SignalLayout;
+use super::observer::{Findings, Observer, ObserverError, StepView};
+use super::simulator::Simulator;
 use crate::data::csv_file;
 use crate::data::parquet_file;
 use crate::data::sha256_hex;

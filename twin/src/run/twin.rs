@@ -1,18 +1,19 @@
 //! The twin: a loaded scenario built into its mechanism, machine, sensors and controller, and
-//! `Twin::run`, the one door in; what stops a run before it starts (`TwinError`).
+//! what stops a run before it starts (`TwinError`). `Twin::run`, the one door in, is
+//! [`super::whole_run`].
 
 use super::evaluate::Evaluator;
 use super::layout::LayoutParts;
-use super::plant_model::{MechanismDynamics, ScenarioFolder};
+use super::layout::SignalLayout;
+use super::observer::ObserverError;
+use super::plant_model::{effort_kind, MechanismDynamics, ScenarioFolder};
 use super::record::{RecordingObserver, RecordingParts};
-use super::session::Session;
 use super::spectra::SpectraPlan;
-use super::stats::RunStats;
-use super::{Divergence, FailureKind, Observer, ObserverError, RunSummary, SignalLayout};
+use super::summary::{Divergence, FailureKind};
 use crate::data::PlantColumns;
 use crate::faults::FaultSet;
 use crate::machines::{self, Machine, MachineError};
-use crate::mechanism::{Joint, JointMotion, Mechanism};
+use crate::mechanism::{JointMotion, Mechanism};
 use crate::physics::{BodyKind, BodySpec, Engine};
 use crate::physics::{BodyShapes, ContactDetector, MechanismState};
 use crate::recording::{LiveViewer, RecordingError};
@@ -20,10 +21,9 @@ use crate::scenario::{LoadedScenario, Scenario, ScenarioError};
 use crate::scene::{Bounds, Scene};
 use crate::sensors::Sensor;
 use crate::urdf::{self, UrdfError};
-use framework::{Actuator, Controller, ControllerError, EffortKind, PlantInterface};
+use framework::{Actuator, Controller, ControllerError, PlantInterface};
 use std::path::Path;
 use std::sync::Arc;
-use std::time::Instant;
 use thiserror::Error;
 
 /// Everything that stops a run before it starts, or ends it without a summary (a failed
@@ -373,72 +373,6 @@ impl Twin {
         &self.mechanism.notes
     }
 
-    /// Runs the scenario; with `recording`, writes the .rrd there (atomically: a partial file
-    /// is renamed into place only once closed). A diverging run stops early and says so in the
-    /// summary; its recording is kept, up to and including the failure.
-    pub fn run(self, recording: Option<&Path>) -> Result<RunSummary, TwinError> {
-        self.run_with(recording, &mut [])
-    }
-
-    /// [`Twin::run`] with `observers` watching every step besides the recording and the
-    /// scenario's evaluators; the figures they find join the summary's metrics.
-    pub fn run_with(
-        mut self,
-        recording: Option<&Path>,
-        observers: &mut [&mut dyn Observer],
-    ) -> Result<RunSummary, TwinError> {
-        let mut recorder = recording.map(|path| self.recording_observer(path));
-        // The recording finishes last, with the summary.
-        let recorded = usize::from(recorder.is_some());
-        let mut stats = RunStats::default();
-        let mut evaluators = std::mem::take(&mut self.evaluators);
-        let mut watching: Vec<&mut dyn Observer> = Vec::with_capacity(2 + observers.len());
-        if let Some(recorder) = recorder.as_mut() {
-            watching.push(recorder);
-        }
-        watching.push(&mut stats);
-        watching.extend(evaluators.iter_mut().map(|e| e as &mut dyn Observer));
-        watching.extend(observers.iter_mut().map(|o| shorten(&mut **o)));
-        for observer in &mut watching {
-            observer.start(&self.layout).map_err(observer_error)?;
-        }
-        let started = Instant::now();
-        let ending = Session::new(&mut self).run(&mut watching)?;
-        let wall_s = started.elapsed().as_secs_f64();
-        let mut metrics = self.machine.metrics();
-        let mut warnings = Vec::new();
-        for observer in watching.iter_mut().skip(recorded) {
-            let findings = observer.finish().map_err(observer_error)?;
-            metrics.extend(findings.metrics);
-            warnings.extend(findings.warnings);
-        }
-        drop(watching);
-        if self.contacts.is_active() {
-            let (figures, warning) = self.contacts.findings();
-            metrics.extend(figures);
-            warnings.extend(warning);
-        }
-        let scenario = &self.loaded.scenario;
-        let mut summary = RunSummary {
-            scenario: scenario.name.clone(),
-            controller: self.loaded.controller.name().to_string(),
-            dt: scenario.dt,
-            steps: ending.steps,
-            wall_s,
-            steps_per_s: ending.steps as f64 / wall_s.max(1e-12),
-            metrics,
-            failure: ending.failure,
-            interrupted: ending.interrupted,
-            warnings,
-            series_digest: ending.digest,
-        };
-        if let Some(recorder) = recorder.as_mut() {
-            let findings = recorder.finish_with(&summary).map_err(observer_error)?;
-            summary.warnings.extend(findings.warnings);
-        }
-        Ok(summary)
-    }
-
     pub(super) fn recording_observer(&self, path: &Path) -> RecordingObserver {
         let scenario = &self.loaded.scenario;
         let mut digest = super::stats::Digest::default();
@@ -573,11 +507,6 @@ pub(crate) fn framed(mut scene: Scene, mechanism: &Mechanism, bodies: &[BodySpec
         scene.bounds = scene.bounds.union(&content);
     }
     scene
-}
-
-/// A caller's observer, borrowed for as long as the run's own.
-fn shorten<'x>(observer: &'x mut (dyn Observer + '_)) -> &'x mut (dyn Observer + 'x) {
-    observer
 }
 
 /// An observer's error as the run's: a recording's keeps its type.
@@ -771,12 +700,4 @@ fn joint_actuators(mechanism: &Mechanism, actuated: &[usize]) -> Vec<Actuator> {
             }
         })
         .collect()
-}
-
-/// The effort a joint takes: a force on a prismatic joint, else a torque.
-pub(crate) fn effort_kind(joint: &Joint) -> EffortKind {
-    match joint.motion {
-        JointMotion::Prismatic { .. } => EffortKind::Force,
-        _ => EffortKind::Torque,
-    }
 }

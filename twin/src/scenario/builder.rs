@@ -2,7 +2,10 @@
 //! `--set`, another controller, metrics), checked as a whole and built with the registry.
 
 use super::builtin::find_urdf;
-use super::{LoadedScenario, MetricSpec, Scenario, ScenarioError};
+use super::error::ScenarioError;
+use super::loaded::LoadedScenario;
+use super::metrics::MetricSpec;
+use super::spec::Scenario;
 use crate::files::read_text;
 use crate::machines::ForceTable;
 use crate::mechanism::Plane;

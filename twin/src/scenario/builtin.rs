@@ -1,6 +1,6 @@
 //! The scenarios and URDF files shipped with the twin, and where a scenario's URDF is found.
 
-use super::{Scenario, ScenarioBuilder, ScenarioError};
+use super::error::ScenarioError;
 use crate::files::read_text;
 use std::path::{Path, PathBuf};
 
@@ -87,7 +87,7 @@ const BUILTIN_URDF: &[(&str, &str)] = &[
     ("urdf/lathe.urdf", include_str!("../../../urdf/lathe.urdf")),
 ];
 
-fn unknown(name: &str) -> ScenarioError {
+pub(super) fn unknown(name: &str) -> ScenarioError {
     ScenarioError::Unknown {
         name: name.into(),
         known: BUILTIN
@@ -118,27 +118,5 @@ pub(super) fn find_urdf(path: &str, folder: Option<&Path>) -> Option<UrdfLookup>
     match folder {
         Some(folder) => file(folder.join(path)).or_else(builtin),
         None => builtin().or_else(|| file(PathBuf::from(path))),
-    }
-}
-
-impl Scenario {
-    /// A built-in scenario by name (`whitworth-tracking`, …); unknown names list the known ones.
-    pub fn builtin(name: &str) -> Result<ScenarioBuilder, ScenarioError> {
-        let (name, text) = BUILTIN
-            .iter()
-            .find(|(known, _)| *known == name)
-            .ok_or_else(|| unknown(name))?;
-        Self::from_toml(text, &format!("built-in scenario {name}"), None)
-    }
-
-    /// A built-in name, else a file path (what the CLI's SCENARIO argument accepts).
-    pub fn open(name_or_path: &str) -> Result<ScenarioBuilder, ScenarioError> {
-        if BUILTIN.iter().any(|(name, _)| *name == name_or_path) {
-            Self::builtin(name_or_path)
-        } else if name_or_path.ends_with(".toml") || Path::new(name_or_path).exists() {
-            Self::from_file(name_or_path)
-        } else {
-            Err(unknown(name_or_path))
-        }
     }
 }

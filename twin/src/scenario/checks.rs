@@ -1,7 +1,7 @@
 //! What a valid scenario is: names, timing, sensors, reference, limits, faults and metrics that
 //! can be checked before the run (names of signals are checked against the run's layout).
 
-use super::Scenario;
+use super::spec::Scenario;
 use crate::physics::MAX_SUBSTEPS;
 
 /// Longest scenario name (it names the default recording file).

@@ -3,7 +3,7 @@
 use super::*;
 
 fn load(name: &str, overrides: &Overrides) -> Result<LoadedScenario, ScenarioError> {
-    super::load(name, overrides, &controllers::builtin())
+    super::builder::load(name, overrides, &controllers::builtin())
 }
 
 fn build(builder: ScenarioBuilder) -> Result<LoadedScenario, ScenarioError> {

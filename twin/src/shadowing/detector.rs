@@ -21,8 +21,8 @@
 //! second; it carries the signals that alarmed, its start (the CUSUM's change-point estimate),
 //! its end and its size (the largest standardised shift).
 
+use super::anomaly::{Anomaly, Attribution};
 use super::student::student_quantile;
-use super::{Anomaly, Attribution};
 use std::collections::VecDeque;
 
 /// Seconds every test must stay released before an anomaly closes.

@@ -10,8 +10,8 @@
 //! mean on these nearly linear spans of 1–100 ms. The update uses the Joseph form, which keeps
 //! the covariance symmetric and positive through the parameters' small variances.
 
+use super::error::ShadowError;
 use super::model::{diverged, Knob, Model, Tape};
-use super::ShadowError;
 use crate::mechanism::Pose2;
 use nalgebra::{DMatrix, DVector};
 

@@ -1,7 +1,6 @@
 //! The shadow's intake: samples held in source-time order until they are `latency` behind the
 //! newest, late ones and repeats counted and dropped.
 
-use super::IntakeCounts;
 use std::collections::BTreeMap;
 
 /// What a sample is of.
@@ -110,6 +109,22 @@ impl Intake {
             })
             .collect()
     }
+}
+
+/// Counts of what the intake did with the samples.
+#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize)]
+pub struct IntakeCounts {
+    /// Samples processed.
+    pub processed: u64,
+    /// Samples older than what had been processed: dropped.
+    pub late: u64,
+    /// Of those, commands: the model ran under an older command for a while, so the state was
+    /// taken up again with the parameters held and the tests paused.
+    pub late_commands: u64,
+    /// Samples repeating one already taken (same signal and time): dropped.
+    pub duplicate: u64,
+    /// Samples taken out of their arrival order.
+    pub reordered: u64,
 }
 
 #[cfg(test)]

@@ -10,6 +10,7 @@
 //! (same signal, same time) is counted and dropped. This file only declares the modules and
 //! re-exports what the library shows.
 
+mod anomaly;
 mod detector;
 mod error;
 mod filter;
@@ -20,9 +21,11 @@ mod record;
 mod student;
 mod watch;
 
+pub use anomaly::{Anomaly, Attribution};
 pub use detector::{AnomalyChange, DetectorView};
 pub use error::ShadowError;
 pub use filter::Innovation;
+pub use intake::IntakeCounts;
 pub use options::{ShadowOptions, TrackedParameter, DEFAULT_PROCESS_NOISE};
 pub use record::{describe, ShadowRecording};
-pub use watch::{Anomaly, Attribution, IntakeCounts, Shadow, ShadowStep, MAX_GAP};
+pub use watch::{Shadow, ShadowStep, MAX_GAP};

@@ -7,7 +7,7 @@
 //! loads of each substep), so that the filter's perturbed propagations replay the same inputs:
 //! the machine's own states (a drive's current, a cut's history) follow the estimate only.
 
-use super::ShadowError;
+use super::error::ShadowError;
 use crate::machines::Machine;
 use crate::mechanism::{Inertial, Mechanism, Pose2};
 use crate::physics::{Load, MechanismState, ReducedDynamics, ReducedError};

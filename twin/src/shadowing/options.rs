@@ -1,9 +1,9 @@
 //! What a shadow is asked to do, and its binding to the model: the watched signals, the tracked
 //! parameters as the filter's knobs, and the filter's noise in SI.
 
+use super::error::ShadowError;
 use super::filter::Tuning;
 use super::model::{Knob, Model};
-use super::ShadowError;
 use crate::scenario::Scenario;
 
 /// Share of the largest acceleration an actuator can give that the model may be off by, per

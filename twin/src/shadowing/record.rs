@@ -4,7 +4,9 @@
 //! intervals; further tabs hold per watched signal the measurement and the estimate, the
 //! residual and the normalised innovations. Anomalies and connection events are in the log.
 
-use super::{AnomalyChange, Shadow, ShadowError, ShadowStep};
+use super::detector::AnomalyChange;
+use super::error::ShadowError;
+use super::watch::{Shadow, ShadowStep};
 use crate::mechanism::{Pose2, Shape};
 use crate::recording::{
     LiveViewer, PlotSpec, PlotTab, Recorder, RecordingLayout, SeriesRole, SeriesSpec,

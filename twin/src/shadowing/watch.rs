@@ -2,10 +2,14 @@
 //! estimate, tests the innovations and says what changed ([`Shadow`]), with what one processed
 //! measurement time gives ([`ShadowStep`]) and the account of an anomaly ([`Anomaly`]).
 
+use super::anomaly::Anomaly;
 use super::detector::{self, Detector};
+use super::detector::{AnomalyChange, DetectorView};
+use super::error::ShadowError;
 use super::filter::Filter;
-use super::intake::{Intake, Sample, SampleKind};
-use super::{AnomalyChange, DetectorView, Innovation, ShadowError, ShadowOptions};
+use super::filter::Innovation;
+use super::intake::{Intake, IntakeCounts, Sample, SampleKind};
+use super::options::ShadowOptions;
 use crate::data::PlantColumns;
 use crate::mechanism::{Pose2, Shape};
 use crate::run::Twin;
@@ -15,40 +19,6 @@ use crate::scene::Scene;
 /// Longest span between two samples the model is propagated over, s; after a longer one the
 /// state is taken up afresh from the next samples.
 pub const MAX_GAP: f64 = 1.0;
-
-/// A stretch of time in which the machine stopped behaving like its model.
-#[derive(Debug, Clone, PartialEq, serde::Serialize)]
-pub struct Anomaly {
-    /// The signals whose tests alarmed (and the parameters that drifted).
-    pub signals: Vec<String>,
-    /// Where the tests place its start, s since the first sample.
-    pub start: f64,
-    /// When it was detected, s since the first sample.
-    pub detected: f64,
-    /// When every test was released again; `None` while it lasts.
-    pub end: Option<f64>,
-    /// The largest standardised shift during it: of a signal's innovation, in standard
-    /// deviations of a healthy block mean, or of a tracked parameter from its reference, in
-    /// standard deviations of their difference.
-    pub size: f64,
-    /// The parameter that explains it, if one moved significantly.
-    pub attribution: Option<Attribution>,
-}
-
-/// A tracked parameter named as the cause of an anomaly.
-#[derive(Debug, Clone, PartialEq, serde::Serialize)]
-pub struct Attribution {
-    /// Its scenario key.
-    pub parameter: String,
-    /// Its estimate at the anomaly's start, SI.
-    pub before: f64,
-    /// Its estimate now (or at the anomaly's end), SI.
-    pub estimate: f64,
-    /// The estimate's 95 % interval.
-    pub interval: [f64; 2],
-    /// How far it moved, in its standard deviations.
-    pub shift_sigmas: f64,
-}
 
 /// What one processed measurement time gives.
 #[derive(Debug, Clone, PartialEq)]
@@ -74,22 +44,6 @@ pub struct ShadowStep {
     /// The links' poses where the joint positions measured now put the mechanism, when they
     /// place it (every independent coordinate's position measured).
     pub measured_poses: Option<Vec<Pose2>>,
-}
-
-/// Counts of what the intake did with the samples.
-#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize)]
-pub struct IntakeCounts {
-    /// Samples processed.
-    pub processed: u64,
-    /// Samples older than what had been processed: dropped.
-    pub late: u64,
-    /// Of those, commands: the model ran under an older command for a while, so the state was
-    /// taken up again with the parameters held and the tests paused.
-    pub late_commands: u64,
-    /// Samples repeating one already taken (same signal and time): dropped.
-    pub duplicate: u64,
-    /// Samples taken out of their arrival order.
-    pub reordered: u64,
 }
 
 /// A twin watching a machine.
