@@ -76,6 +76,7 @@ mod spindle;
 
 use super::actuators::{kind_of, ActuatorKind, ActuatorSpecs};
 use super::error::MachineError;
+use super::joint_drives::JointDrives;
 use super::machine::{effort_unit, Machine};
 use super::parts::{joint, link, process_params};
 use crate::mechanism::Mechanism;
@@ -171,14 +172,13 @@ enum DrivePower {
 const PAPER_CURRENT_TOLERANCE: f64 = 18.0;
 
 pub struct Arm {
-    joints: [usize; 3],
     /// Where the shoulder turns, world frame, m.
     shoulder: [f64; 2],
     spindle_joint: usize,
     hand: usize,
     cutter_link: usize,
-    /// Per arm joint its drive, `None` where the scenario makes it ideal.
-    drives: Vec<Option<Drive>>,
+    /// The arm joints' actuators: a DC servo each, or ideal where the scenario makes it so.
+    drives: JointDrives,
     drive_power: DrivePower,
     spindle_power: DrivePower,
     spindle: Spindle,
@@ -186,7 +186,6 @@ pub struct Arm {
     stock: Stock,
     cutter: Cutter,
     deep_zone_depth: f64,
-    joint_speeds: [f64; 3],
     spindle_speed: f64,
     cut: CutLoad,
     cut_force: [f64; 2],
@@ -215,7 +214,8 @@ impl Arm {
             joint(MACHINE, mechanism, JOINTS[1])?,
             joint(MACHINE, mechanism, JOINTS[2])?,
         ];
-        let drives = joint_drives(mechanism, joints, &params.drives, actuators).map_err(bad)?;
+        let servos = joint_drives(mechanism, joints, &params.drives, actuators).map_err(bad)?;
+        let drives = JointDrives::with_servos(mechanism, joints.into_iter().zip(servos).collect());
         let spindle_joint = joint(MACHINE, mechanism, "spindle")?;
         if mechanism.joints[spindle_joint].effort_limit.is_some() {
             return Err(bad(
@@ -254,7 +254,6 @@ impl Arm {
             .collect();
         let shoulder = mechanism.zero_pose()[mechanism.joints[joints[0]].child];
         Ok(Self {
-            joints,
             shoulder: [shoulder.x, shoulder.y],
             spindle_joint,
             hand: link(MACHINE, mechanism, "hand")?,
@@ -268,7 +267,6 @@ impl Arm {
             stock: params.stock,
             cutter,
             deep_zone_depth,
-            joint_speeds: [0.0; 3],
             spindle_speed: 0.0,
             cut: CutLoad::default(),
             cut_force: [0.0; 2],
@@ -317,21 +315,16 @@ impl Arm {
         }
     }
 
-    fn currents(&self) -> [f64; 4] {
-        let current = |drive: &Option<Drive>| drive.as_ref().map_or(0.0, Drive::current);
-        [
-            current(&self.drives[0]),
-            current(&self.drives[1]),
-            current(&self.drives[2]),
-            self.spindle.drive.current(),
-        ]
-    }
-
-    /// The drive of an arm joint's actuator: `Some(None)` where the scenario makes it ideal,
-    /// `None` for an actuator that is no arm joint.
-    fn drive_of(&self, actuator: &Actuator) -> Option<Option<&Drive>> {
-        let i = JOINTS.iter().position(|&joint| joint == actuator.joint)?;
-        Some(self.drives[i].as_ref())
+    /// The arm motors' and the spindle's currents, A, and whether each is at its limit.
+    fn currents(&self) -> ([f64; 4], [bool; 4]) {
+        let mut currents = [0.0; 4];
+        let mut at_limit = [false; 4];
+        for (k, (current, limited)) in self.drives.currents().enumerate() {
+            (currents[k], at_limit[k]) = (current, limited);
+        }
+        currents[3] = self.spindle.drive.current();
+        at_limit[3] = self.spindle.drive.at_limit();
+        (currents, at_limit)
     }
 }
 
@@ -417,19 +410,13 @@ impl Machine for Arm {
     /// The controller commands each drive's current (A), shown with the current it gets; an
     /// ideal drive's torque (N·m).
     fn command_unit(&self, actuator: &Actuator) -> Unit {
-        match self.drive_of(actuator) {
-            Some(None) => effort_unit(actuator.kind),
-            _ => Unit::Ampere,
-        }
+        (self.drives.command_unit(actuator)).unwrap_or_else(|| effort_unit(actuator.kind))
     }
 
     /// The drive's protection limit, A (the URDF's effort limit is the torque it gives); an ideal
     /// drive's the URDF's effort limit, N·m.
     fn command_limit(&self, actuator: &Actuator) -> f64 {
-        match self.drive_of(actuator) {
-            Some(Some(drive)) => drive.params().current_limit,
-            _ => actuator.effort_limit,
-        }
+        self.drives.command_limit(actuator)
     }
 
     fn scene(&self) -> Scene {
@@ -445,9 +432,7 @@ impl Machine for Arm {
     ) {
         let dt = time - self.time;
         self.time = time;
-        for (speed, &j) in self.joint_speeds.iter_mut().zip(&self.joints) {
-            *speed = state.joint_velocities[j];
-        }
+        self.drives.observe_speeds(state);
         self.spindle_speed = state.joint_velocities[self.spindle_joint];
         let tool = state.link_poses[self.cutter_link];
         let velocity = state.link_velocities[self.cutter_link];
@@ -460,7 +445,7 @@ impl Machine for Arm {
         };
         self.update_cut(&seen, radial_depth, velocity);
         let path_speed = velocity[0] * seen.tangent[0] + velocity[1] * seen.tangent[1];
-        let currents = self.currents();
+        let (currents, at_limit) = self.currents();
         signals.copy_from_slice(&[
             currents[0],
             currents[1],
@@ -476,13 +461,6 @@ impl Machine for Arm {
             self.cut_force[0].hypot(self.cut_force[1]),
             self.cut.torque,
         ]);
-        let at_limit = |drive: &Option<Drive>| drive.as_ref().is_some_and(Drive::at_limit);
-        let at_limit = [
-            at_limit(&self.drives[0]),
-            at_limit(&self.drives[1]),
-            at_limit(&self.drives[2]),
-            self.spindle.drive.at_limit(),
-        ];
         self.figures.observe(&Sample {
             time,
             dt,
@@ -496,12 +474,9 @@ impl Machine for Arm {
     }
 
     fn drive(&mut self, dt: f64, commanded: &[f64], applied: &mut [f64]) {
-        for (a, drive) in self.drives.iter_mut().enumerate() {
-            applied[a] = match (self.drive_power, drive) {
-                (DrivePower::On, Some(drive)) => drive.step(dt, commanded[a], self.joint_speeds[a]),
-                (DrivePower::On, None) => commanded[a],
-                (DrivePower::Off, _) => 0.0,
-            };
+        match self.drive_power {
+            DrivePower::On => self.drives.drive(dt, commanded, applied),
+            DrivePower::Off => applied.fill(0.0),
         }
         self.spindle_torque = match (self.drive_power, self.spindle_power) {
             (DrivePower::On, DrivePower::On) => self.spindle.step(dt, self.spindle_speed),
@@ -610,7 +585,7 @@ mod tests {
     #[test]
     fn an_ideal_drive_applies_its_command_and_has_no_current() {
         let mut arm = arm_with("on", "elbow.kind = \"effort\"");
-        arm.joint_speeds = [3.0, -2.0, 5.0];
+        arm.drives.set_speeds(&[3.0, -2.0, 5.0]);
         let shoulder = Actuator {
             joint: "shoulder".into(),
             kind: framework::EffortKind::Torque,
@@ -630,9 +605,9 @@ mod tests {
             // The elbow's torque as commanded, bit for bit, beside two drives that lag it.
             assert_eq!(applied[1], -37.25);
             assert_ne!(applied[0], 5.0 * 4.2);
-            assert_eq!(arm.currents()[1], 0.0);
+            assert_eq!(arm.currents().0[1], 0.0);
         }
-        assert!(arm.currents()[0] > 0.0);
+        assert!(arm.currents().0[0] > 0.0);
         // Power off frees the ideal joint too.
         let mut off = arm_with("off", "\"*\".kind = \"effort\"");
         off.drive(1e-3, &[5.0, -37.25, 2.0], &mut applied);
@@ -644,7 +619,7 @@ mod tests {
         let mut applied = [0.0; 3];
         // Power off: whatever is commanded, no torque, and the spindle stays unpowered too.
         let mut off = arm("off");
-        off.joint_speeds = [3.0, -2.0, 5.0];
+        off.drives.set_speeds(&[3.0, -2.0, 5.0]);
         off.spindle_speed = 100.0;
         for _ in 0..100 {
             off.drive(1e-3, &[20.0, -20.0, 20.0], &mut applied);
@@ -655,7 +630,7 @@ mod tests {
         // against the back-EMF; beyond, the 48 V supply runs out and the joint is braked.
         for (speed, braked) in [(2.0, false), (15.0, true)] {
             let mut on = arm("on");
-            on.joint_speeds = [speed, 0.0, 0.0];
+            on.drives.set_speeds(&[speed, 0.0, 0.0]);
             for _ in 0..100 {
                 on.drive(1e-3, &[0.0; 3], &mut applied);
             }

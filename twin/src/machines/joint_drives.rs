@@ -1,6 +1,7 @@
-//! The generic machine's actuators, one per driven joint: the command passes through the
-//! joint's transmission (its `<mechanicalReduction>`), ideal, or through a DC servo drive from the
-//! scenario's data sheet (`[actuators.<joint>] kind = "dc-servo"`), whose command is a current.
+//! Actuators, one per driven joint: the command passes through the joint's transmission (its
+//! `<mechanicalReduction>`), ideal, or through a DC servo drive, whose command is a current. The
+//! generic machine's servos come from the scenario's data sheet (`[actuators.<joint>] kind =
+//! "dc-servo"`); the arm's are its own (`[process.drives]`), written once here for both.
 
 use super::actuators::{key_of, spec_of, ActuatorKind, ActuatorSpecs};
 use super::error::MachineError;
@@ -49,6 +50,46 @@ impl JointDrives {
             });
         }
         Ok(Self(drives))
+    }
+
+    /// The actuators of `joints` (in actuator order) with the DC servos a machine brings,
+    /// `None` where a joint's drive is ideal; each takes its joint's transmission reduction.
+    pub(super) fn with_servos(mechanism: &Mechanism, servos: Vec<(usize, Option<Drive>)>) -> Self {
+        let drives = (servos.into_iter())
+            .map(|(j, servo)| JointDrive {
+                name: mechanism.joints[j].name.clone(),
+                joint: j,
+                reduction: mechanism.joints[j].reduction,
+                servo,
+                speed: 0.0,
+            })
+            .collect();
+        Self(drives)
+    }
+
+    /// Each actuator's winding current, A (0 for an ideal one), and whether its current loop
+    /// is at its limit, in actuator order.
+    pub(super) fn currents(&self) -> impl Iterator<Item = (f64, bool)> + '_ {
+        (self.0.iter()).map(|d| {
+            d.servo
+                .as_ref()
+                .map_or((0.0, false), |s| (s.current(), s.at_limit()))
+        })
+    }
+
+    /// Keeps each joint's speed for the drives' back-EMF.
+    pub(super) fn observe_speeds(&mut self, state: &MechanismState) {
+        for drive in &mut self.0 {
+            drive.speed = state.joint_velocities[drive.joint];
+        }
+    }
+
+    /// Sets the joints' speeds the drives see, in actuator order (a test's state).
+    #[cfg(test)]
+    pub(super) fn set_speeds(&mut self, speeds: &[f64]) {
+        for (drive, &speed) in self.0.iter_mut().zip(speeds) {
+            drive.speed = speed;
+        }
     }
 
     fn of(&self, actuator: &Actuator) -> Option<&JointDrive> {
