@@ -15,7 +15,8 @@ use std::collections::BTreeMap;
 /// and a recording of a few GB at `recording.every = 1`.
 pub const DEFAULT_MAX_STEPS: usize = 10_000_000;
 
-/// A scenario as its TOML gives it (see the module doc); [`LoadedScenario`] is one checked.
+/// A scenario as its TOML gives it (see the module doc);
+/// [`LoadedScenario`](super::loaded::LoadedScenario) is one checked.
 #[derive(Debug, Clone, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct Scenario {
