@@ -14,7 +14,8 @@
 //! stable cut repeats every tooth: its Poincaré samples converge) still move at the end of the
 //! run (see `chatters`). Points within 5 % of the lobes' depth are left out of the agreement.
 
-use super::{create_dir, write_text, AnalysisError};
+use super::error::AnalysisError;
+use super::files::{create_dir, write_text};
 use crate::frf::file::read_csv;
 use crate::frf::fit::{fit_mode, ModalFit};
 use framework::Registry;

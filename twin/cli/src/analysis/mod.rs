@@ -1,58 +1,21 @@
 //! `twin analyze <machine>`: analyses of a machine's reduced model, written as CSV files and a
 //! 2D `.rrd` plot. The lathe's power loop is the one analysed so far ([`lathe`]).
 
+mod error;
+mod files;
 pub mod lathe;
-
 pub mod milling;
 
-use crate::flags::SetFlag;
-use controllers::lathe::output_feedback_design::DesignError;
-use models::lathe::LatheError;
-use std::path::{Path, PathBuf};
-use thiserror::Error;
-use twin::OutputFile;
-use twin::RecordingError;
+pub use error::AnalysisError;
 
-#[derive(Debug, Error)]
-pub enum AnalysisError {
-    #[error("unknown analysis `{name}` (known: {known})")]
-    Unknown { name: String, known: String },
-    #[error(transparent)]
-    Lathe(#[from] LatheError),
-    #[error(transparent)]
-    Design(#[from] DesignError),
-    #[error("{flag}: {reason}")]
-    Argument { flag: &'static str, reason: String },
-    #[error("cannot write {path}: {reason}")]
-    Output { path: PathBuf, reason: String },
-    #[error(transparent)]
-    Recording(#[from] RecordingError),
-}
+use crate::flags::SetFlag;
+use std::path::{Path, PathBuf};
 
 /// Largest `--grid` (points per axis): 10,000 trajectories.
 pub const MAX_GRID: usize = 100;
 
 /// Machines `twin analyze` knows.
 pub const ANALYSES: &[&str] = &["lathe", "milling"];
-
-/// Creates `dir` (and its parents) for an analysis' files.
-pub(crate) fn create_dir(dir: &Path) -> Result<(), AnalysisError> {
-    std::fs::create_dir_all(dir).map_err(|e| AnalysisError::Output {
-        path: dir.to_path_buf(),
-        reason: e.to_string(),
-    })
-}
-
-/// Writes `text` as the whole of `path` (see [`twin::OutputFile`]: never a half-written file).
-pub(crate) fn write_text(path: &Path, text: &str) -> Result<(), AnalysisError> {
-    let output_error = |e: twin::OutputError| AnalysisError::Output {
-        path: e.path,
-        reason: e.reason,
-    };
-    OutputFile::create(path)
-        .and_then(|file| file.commit(text.as_bytes()))
-        .map_err(output_error)
-}
 
 /// `twin analyze` arguments.
 #[derive(Debug, Clone, clap::Args)]

@@ -8,7 +8,8 @@
 //! next to the twin's figures. A [`SpeedWatch`] observer reads `V_K` and the overload flag `R`
 //! (the controller's internal signals) for the oscillation of `V_K` in the correction mode.
 
-use super::{Claim, Report, ReproduceError, Verdict};
+use super::error::ReproduceError;
+use super::report::{Claim, Report, Verdict};
 use controllers::filters::FirstOrderFilter;
 use framework::Registry;
 use serde_json::json;
@@ -151,7 +152,7 @@ fn run_one(
 
 /// `arm-milling` at a constant path speed, m/s.
 fn constant(speed: f64, engine: Option<Engine>) -> Result<ScenarioBuilder, ReproduceError> {
-    super::builtin(SCENARIO, engine)
+    super::scenarios::builtin(SCENARIO, engine)
         .and_then(|s| {
             s.controller("path-speed-constant")
                 .duration(CONSTANT_DURATION)
@@ -231,7 +232,7 @@ pub fn run(
     registry: &Registry,
     engine: Option<Engine>,
 ) -> Result<Report, ReproduceError> {
-    let builtin = super::builtin(SCENARIO, engine).map_err(twin::TwinError::from)?;
+    let builtin = super::scenarios::builtin(SCENARIO, engine).map_err(twin::TwinError::from)?;
     let adaptive = run_one(out_dir, registry, "adaptive".into(), builtin)?;
     let blind = run_one(
         out_dir,

@@ -25,7 +25,8 @@
 //! reference moving at 3 µm/s, so every controller's velocity error starts at 3 µm/s (the paper's
 //! SMC rows say 3 too; its P-PI rows, 1.9 and 1.7 µm/s, cannot come from that start).
 
-use super::{Claim, Report, ReproduceError, Verdict};
+use super::error::ReproduceError;
+use super::report::{Claim, Report, Verdict};
 use framework::Registry;
 use std::path::Path;
 use twin::summary;
@@ -158,7 +159,7 @@ pub fn run(
     let mut records = Vec::new();
     for controller in CONTROLLERS {
         for cutting in [false, true] {
-            let loaded = super::builtin(SCENARIO, engine)
+            let loaded = super::scenarios::builtin(SCENARIO, engine)
                 .and_then(|s| s.controller(controller).set("process.cutting", cutting))
                 .and_then(|b| b.build(registry))
                 .map_err(TwinError::from)?;

@@ -7,7 +7,8 @@
 //! Files: `phase-<gains>/` holds each gain set's CSV files and `phase_plane.rrd`; `<run>.rrd` each
 //! twin run.
 
-use super::{Claim, Report, ReproduceError, Verdict};
+use super::error::ReproduceError;
+use super::report::{Claim, Report, Verdict};
 use crate::analysis::lathe::{analyze, Gains, PhasePlane, PhasePlaneRequest};
 use framework::Registry;
 use models::lathe::{EquilibriumKind, Lathe, TOOLS};

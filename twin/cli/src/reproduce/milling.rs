@@ -14,7 +14,8 @@
 //! - the constant 16,500 rpm reference: *reproduced* when both programmes' peaks lie below it as
 //!   well (varying the speed does more than moving to the programme's top speed).
 
-use super::{Claim, Report, ReproduceError, Verdict};
+use super::error::ReproduceError;
+use super::report::{Claim, Report, Verdict};
 use framework::Registry;
 use std::path::Path;
 use twin::summary;
@@ -39,7 +40,7 @@ pub fn run(
 ) -> Result<Report, ReproduceError> {
     let mut records = Vec::new();
     let mut run = |name: &str| -> Result<RunSummary, ReproduceError> {
-        let loaded = super::builtin(name, engine)
+        let loaded = super::scenarios::builtin(name, engine)
             .and_then(|b| b.build(registry))
             .map_err(TwinError::from)?;
         let file = format!("{name}.rrd");

@@ -14,7 +14,8 @@
 //! - slip a serious problem for the PID: *reproduced* when the PID's peak wheel slip is over twice
 //!   energy-optimal's on both floors, *partly* when it is larger on both.
 
-use super::{Claim, Report, ReproduceError, Verdict};
+use super::error::ReproduceError;
+use super::report::{Claim, Report, Verdict};
 use framework::Registry;
 use std::path::Path;
 use twin::summary;
@@ -56,7 +57,7 @@ pub fn run(
         .flat_map(|p| CONTROLLERS.map(|c| (*p, c, false)))
         .chain(CONTROLLERS.map(|c| ("platform-path-s", c, true)));
     for (scenario_name, controller, slippery) in cases {
-        let loaded = super::builtin(scenario_name, engine)
+        let loaded = super::scenarios::builtin(scenario_name, engine)
             .map(|s| s.controller(controller))
             .and_then(|s| match slippery {
                 true => s.set("process.friction", SLIPPERY),

@@ -7,7 +7,8 @@
 //! velocity error over the workpiece `whitworth-cutting`'s machine figures) and a [`SwitchWatch`]
 //! observing the crank torque at each mode switch (the "jerk" of the switching criterion).
 
-use super::{Claim, Report, ReproduceError, Verdict};
+use super::error::ReproduceError;
+use super::report::{Claim, Report, Verdict};
 use framework::Registry;
 use serde_json::json;
 use std::path::Path;

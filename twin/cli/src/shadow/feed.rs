@@ -2,8 +2,8 @@
 //! a live machine over OPC UA through its map; and the loop that feeds them to the shadow,
 //! records each processed step and publishes it.
 
+use super::args::ShadowArgs;
 use super::publish::Publisher;
-use super::ShadowArgs;
 use crate::data_flags::leave_out_unknown;
 use crate::failure::Failure;
 use crate::machine_link::{LinkEvent, LinkOptions, MachineLink, MachineMap};

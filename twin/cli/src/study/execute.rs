@@ -1,8 +1,11 @@
 //! Running a study: the folder checked and claimed, the runs spread over a thread pool (one run
 //! per thread), each run's record written as it ends, then the results made from the records.
 
+use super::definition::{RunPlan, Study, StudyDefinition};
+use super::error::StudyError;
+use super::files;
+use super::plots;
 use super::results::{self, RunRecord, Spec};
-use super::{RunPlan, Study, StudyDefinition, StudyError};
 use framework::Registry;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use rayon::prelude::*;
@@ -174,7 +177,7 @@ pub fn run_study(
     }
     let (report, records) =
         results::write_results(&options.out, &file.keys, planned, &options.specs)?;
-    super::write_plots(&options.out, &file.keys, &records, &options.specs, &report)?;
+    plots::write_plots(&options.out, &file.keys, &records, &options.specs, &report)?;
     let interrupted = Some(stop.load(Ordering::Relaxed)).filter(|&s| s != 0);
     Ok(StudyOutcome {
         report,
@@ -217,7 +220,7 @@ pub(super) fn write_study_file(out: &Path, file: &StudyFile) -> Result<(), Study
         path: out.to_path_buf(),
         reason: e.to_string(),
     })?;
-    super::write_json(&out.join("study.json"), file)
+    files::write_json(&out.join("study.json"), file)
 }
 
 /// What makes two study files different studies (specs may change between resumes).

@@ -2,9 +2,11 @@
 //! `report.json` equal a single machine's run of the same study, byte for byte (both are made
 //! from the run records alone, in index order).
 
+use super::error::StudyError;
 use super::execute::{check_folder, difference, read_study_file, write_study_file, StudyFile};
+use super::files;
+use super::plots;
 use super::results::{self, RunRecord};
-use super::StudyError;
 use std::path::{Path, PathBuf};
 
 /// What a merge found.
@@ -97,11 +99,11 @@ fn write_merged(
                 path: source.clone(),
                 reason: e.to_string(),
             })?;
-            super::write_file(&target, &bytes)?;
+            files::write_file(&target, &bytes)?;
         }
     }
     let (report, records) = results::write_results(out, &whole.keys, whole.runs, &whole.specs)?;
-    super::write_plots(out, &whole.keys, &records, &whole.specs, &report)?;
+    plots::write_plots(out, &whole.keys, &records, &whole.specs, &report)?;
     Ok(Merged {
         report,
         runs: whole.runs,

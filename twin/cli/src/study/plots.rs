@@ -1,7 +1,9 @@
 //! The study's plots as plain data for `OUT/study.rrd`: histograms of the metrics the specs name
 //! (else the first few), and each of those against each numeric parameter.
 
+use super::error::StudyError;
 use super::results::{report_table, RunRecord, Spec};
+use std::path::Path;
 use twin::recordings::{Histogram, Scatter, StudyPlots};
 
 /// Metrics plotted when no spec names any.
@@ -107,4 +109,21 @@ fn histogram(name: &str, values: &[f64]) -> Histogram {
         width,
         counts,
     }
+}
+
+/// Writes `OUT/study.rrd` from the study's records and report.
+pub(super) fn write_plots(
+    out: &Path,
+    keys: &[String],
+    records: &[RunRecord],
+    specs: &[Spec],
+    report: &serde_json::Value,
+) -> Result<(), StudyError> {
+    let title = format!("study {}", out.display());
+    let plots = study_plots(&title, keys, records, specs, report);
+    let path = out.join("study.rrd");
+    twin::recordings::write_study_plots(&path, &plots).map_err(|e| StudyError::Io {
+        path,
+        reason: e.to_string(),
+    })
 }

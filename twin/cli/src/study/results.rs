@@ -3,7 +3,8 @@
 //! files alone, in index order — so a merged study's files equal a single machine's, byte for
 //! byte. Wall times live only in the per-run files.
 
-use super::{write_file, write_json, StudyError};
+use super::error::StudyError;
+use super::files::{write_file, write_json};
 use serde::{Deserialize, Serialize};
 use serde_json::{json, Map, Value};
 use std::fmt::Write as _;

@@ -1,8 +1,9 @@
 //! The lathe phase plane as files: CSV tables (SI: N, W, m/rev, s, 1/s) and a 2D `.rrd` plot,
 //! plus a text summary. The summary also gives H in the paper's mm/kW (1 mm/kW = 10⁻⁶ m/(rev·W)).
 
-use super::{PhasePlane, RECORD_EVERY};
-use crate::analysis::{create_dir, write_text, AnalysisError};
+use super::phase_plane::{PhasePlane, RECORD_EVERY};
+use crate::analysis::error::AnalysisError;
+use crate::analysis::files::{create_dir, write_text};
 use models::lathe::{EquilibriumKind, FeedLimit, FeedRegime, PAPER_STEP};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
