@@ -8,7 +8,7 @@
 //! paper prints Sudhakara eqs (16)–(17) without the exponent α_i; Sudhakara eqs (8) and (25) keep
 //! it, and so does this model.
 
-use super::{require_positive, Lathe, LatheError, TOOLS};
+use super::process::{require_positive, Lathe, LatheError, TOOLS};
 
 /// The paper's RK4 step and controller sample period, s.
 pub const PAPER_STEP: f64 = 0.004;

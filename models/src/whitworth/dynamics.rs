@@ -14,7 +14,7 @@
 //! ρᵀ·M′·ρ`, with ρ the extended Jacobian of the centres of mass and link angles. Nothing here
 //! reads the simulator; the masses default to the ones in `urdf/whitworth.urdf`.
 
-use crate::whitworth::{Geometry, GeometryError};
+use super::geometry::{Geometry, GeometryError};
 use serde::Deserialize;
 use thiserror::Error;
 

@@ -222,6 +222,18 @@ impl Arm {
                 "the spindle joint must not be actuated in the URDF: its own drive turns it".into(),
             ));
         }
+        let actuated = mechanism.actuated_joints();
+        if actuated != joints {
+            let names: Vec<&str> = (actuated.iter())
+                .map(|&j| mechanism.joints[j].name.as_str())
+                .collect();
+            return Err(bad(format!(
+                "the URDF must actuate {} in that order and no other joint (it actuates: {}); \
+                 give the others no <limit effort>",
+                JOINTS.join(", "),
+                names.join(", ")
+            )));
+        }
         let cutter_link = link(MACHINE, mechanism, "cutter")?;
         let rotor_inertia = mechanism.links[cutter_link].inertial.map_or(0.0, |i| i.izz);
         let spindle = Spindle::new(params.spindle, rotor_inertia).map_err(bad)?;
@@ -644,5 +656,22 @@ mod tests {
                 assert!(applied[0].abs() < 0.05, "{speed} rad/s: {} N·m", applied[0]);
             }
         }
+    }
+
+    #[test]
+    fn an_arm_whose_urdf_actuates_other_joints_is_refused_naming_them() {
+        let text = include_str!("../../../urdf/arm.urdf")
+            .replace("effort=\"60\" velocity=\"3\"", "velocity=\"3\"");
+        let mechanism = crate::urdf::load_str(&text, "arm.urdf").expect("loads");
+        let actuators: ActuatorSpecs = toml::from_str("elbow.kind = \"effort\"").expect("toml");
+        let error = Arm::new(&mechanism, &toml::Table::new(), &actuators)
+            .err()
+            .expect("refused")
+            .to_string();
+        assert!(
+            error.contains("shoulder, elbow, wrist in that order")
+                && error.contains("it actuates: shoulder, wrist"),
+            "{error}"
+        );
     }
 }

@@ -111,13 +111,10 @@ impl JointDrives {
 
     /// Fills [`JointDrives::signals`] and keeps each joint's speed for the drives' back-EMF.
     pub(super) fn measure(&mut self, state: &MechanismState, signals: &mut [f64]) {
-        let mut k = 0;
-        for drive in &mut self.0 {
-            drive.speed = state.joint_velocities[drive.joint];
-            if let Some(servo) = &drive.servo {
-                signals[k] = servo.current();
-                k += 1;
-            }
+        self.observe_speeds(state);
+        let servos = self.0.iter().filter_map(|d| d.servo.as_ref());
+        for (signal, servo) in signals.iter_mut().zip(servos) {
+            *signal = servo.current();
         }
     }
 
