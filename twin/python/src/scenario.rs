@@ -274,6 +274,50 @@ impl Scenario {
         Ok(dict)
     }
 
+    /// This scenario packed as `twin fmu` packs it: an FMI 2.0 co-simulation FMU of its closed
+    /// loop, or with `plant_alone` of its plant (the host the controller), written to `path`
+    /// whole or not at all. `library` is the built twin-fmu shared library (libtwin_fmu.so);
+    /// by default the one the `TWIN_FMU_LIBRARY` environment variable names. Returns what was
+    /// packed: `path`, `model_identifier`, `guid`, `controller` (None for the plant alone) and
+    /// `bytes`.
+    #[pyo3(signature = (path, *, plant_alone=false, library=None))]
+    fn fmu<'py>(
+        &self,
+        py: Python<'py>,
+        path: PathBuf,
+        plant_alone: bool,
+        library: Option<PathBuf>,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        let library =
+            match library.or_else(|| std::env::var_os("TWIN_FMU_LIBRARY").map(PathBuf::from)) {
+                Some(library) => library,
+                None => return Err(ScenarioError::new_err(
+                    "library: give the built twin-fmu shared library (`cargo build --release -p \
+                     twin-fmu` makes target/release/libtwin_fmu.so), or set TWIN_FMU_LIBRARY to it",
+                )),
+            };
+        let loaded = self.load()?;
+        let file = twin::OutputFile::create(&path)
+            .map_err(|e| pyo3::exceptions::PyOSError::new_err(format!("path: {e}")))?;
+        let registry = controllers::builtin();
+        let packed = py.detach(|| twin_fmu::package(loaded, !plant_alone, &registry, &library));
+        let (bytes, packed) = packed.map_err(|error| match error {
+            twin_fmu::FmuError::Library { .. } => {
+                ScenarioError::new_err(format!("library: {error}"))
+            }
+            other => ScenarioError::new_err(other.to_string()),
+        })?;
+        file.commit(&bytes)
+            .map_err(|e| pyo3::exceptions::PyOSError::new_err(format!("path: {e}")))?;
+        let dict = PyDict::new(py);
+        dict.set_item("path", path)?;
+        dict.set_item("model_identifier", packed.model_identifier)?;
+        dict.set_item("guid", packed.guid)?;
+        dict.set_item("controller", packed.controller)?;
+        dict.set_item("bytes", packed.bytes)?;
+        Ok(dict)
+    }
+
     fn __repr__(&self) -> String {
         let s = &self.scenario;
         format!(

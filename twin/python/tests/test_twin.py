@@ -88,6 +88,34 @@ def test_each_example_linearises_through_python_as_through_the_command_line(
         twin.Scenario(str(path)).linearize(at=-1.0)
 
 
+@pytest.mark.parametrize("name", ["double-pendulum", "cart-pole", "slider-crank", "five-bar",
+                                  "gantry"])
+def test_each_example_exports_through_python_the_command_lines_fmu(name, tmp_path, twin_cli):
+    """`Scenario.fmu()` is `twin fmu`: the same .fmu, byte for byte, for the closed loop and for
+    the plant alone, on every shipped example."""
+    path = EXAMPLES / name / f"{name}.toml"
+    library = Path(twin_cli).with_name("libtwin_fmu.so")
+    for flags, plant_alone in (([], False), (["--no-controller"], True)):
+        packed = twin.Scenario(str(path)).fmu(tmp_path / "py.fmu", plant_alone=plant_alone,
+                                              library=library)
+        subprocess.run([twin_cli, "fmu", str(path), "--out", str(tmp_path / "cli.fmu"), *flags],
+                       check=True, capture_output=True)
+        assert (tmp_path / "py.fmu").read_bytes() == (tmp_path / "cli.fmu").read_bytes()
+        assert packed["bytes"] == (tmp_path / "py.fmu").stat().st_size
+        assert (packed["controller"] is None) == plant_alone
+        assert packed["model_identifier"] and packed["guid"]
+
+
+def test_an_fmu_without_its_library_is_refused_naming_it(tmp_path, monkeypatch):
+    monkeypatch.delenv("TWIN_FMU_LIBRARY", raising=False)
+    s = twin.Scenario(str(EXAMPLES / "cart-pole" / "cart-pole.toml"))
+    with pytest.raises(twin.ScenarioError, match="library: give the built twin-fmu"):
+        s.fmu(tmp_path / "a.fmu")
+    with pytest.raises(twin.ScenarioError, match="library: FMU library .*missing.so"):
+        s.fmu(tmp_path / "a.fmu", library=tmp_path / "missing.so")
+    assert list(tmp_path.iterdir()) == []
+
+
 def test_a_run_matches_the_command_line(tmp_path, twin_cli):
     """The same scenario and --set through Python and through `twin run`: same figures, same
     recorded series (digest), the recording written where asked."""

@@ -131,6 +131,13 @@ class Scenario:
     def toml(self) -> str: ...
     def simulator(self) -> Simulator: ...
     def linearize(self, at: float = 0.0) -> dict[str, Any]: ...
+    def fmu(
+        self,
+        path: Union[str, os.PathLike[str]],
+        *,
+        plant_alone: bool = False,
+        library: Union[str, os.PathLike[str], None] = None,
+    ) -> dict[str, Any]: ...
     def run(
         self,
         record: Union[str, os.PathLike[str], None] = None,
