@@ -91,8 +91,8 @@ fn an_impulse_response_has_unit_coherence_and_the_static_compliance() {
     // The same inputs, the same bytes.
     let again = measure(&tap("tool_x", Excitation::Impulse), &controllers::builtin()).unwrap();
     assert_eq!(
-        twin_cli::frf::file::to_csv(&result.lines),
-        twin_cli::frf::file::to_csv(&again.lines)
+        twin_cli::frequency_response::file::to_csv(&result.lines),
+        twin_cli::frequency_response::file::to_csv(&again.lines)
     );
 }
 
@@ -328,7 +328,7 @@ fn frf_file(dir: &Path, name: &str, text: &str) -> PathBuf {
 #[test]
 fn malformed_frf_files_are_refused_naming_file_line_and_column() {
     let dir = scratch("files");
-    let header = twin_cli::frf::file::HEADER;
+    let header = twin_cli::frequency_response::file::HEADER;
     let good = format!("{header}\n0,1,0,1,1,0\n");
     let cases = [
         ("missing.csv", None, vec!["missing.csv", "cannot read"]),

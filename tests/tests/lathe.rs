@@ -241,7 +241,7 @@ fn bad_inputs_are_refused_before_the_run() {
 
 #[test]
 fn analyze_command_names_bad_requests() {
-    use twin_cli::analysis::{run as analyze_command, AnalyzeArgs};
+    use twin_cli::analyze::{run as analyze_command, AnalyzeArgs};
     let dir = scratch("lathe-analyze-command");
     let args = AnalyzeArgs {
         machine: "lathe".into(),

@@ -205,6 +205,61 @@ fn no_file_reaches_its_siblings_through_the_folders_mod_rs() {
     assert!(checked > 100, "{checked} references");
 }
 
+/// The command line's commands, each a module `command_line.rs` dispatches to.
+const COMMANDS: [&str; 14] = [
+    "analyze",
+    "bench",
+    "calibrate",
+    "compare",
+    "fmu",
+    "frf",
+    "linearize",
+    "list",
+    "reproduce",
+    "run",
+    "salvage",
+    "serve",
+    "shadow",
+    "sweep",
+];
+
+#[test]
+fn the_command_lines_commands_are_peers_over_a_shared_floor() {
+    let root = workspace().join("twin/cli/src");
+    let door = std::fs::read_to_string(root.join("command_line.rs")).unwrap();
+    let dispatched: BTreeSet<&str> = (door.lines())
+        .filter_map(|line| line.strip_prefix("use crate::")?.strip_suffix(';'))
+        .filter(|name| name.chars().all(|c| c.is_ascii_lowercase() || c == '_'))
+        .filter(|&name| name != "reference")
+        .collect();
+    assert_eq!(
+        dispatched,
+        COMMANDS.into_iter().collect(),
+        "command_line.rs dispatches to these modules: name each command in COMMANDS"
+    );
+    let mut checked = 0;
+    for file in sources(&root) {
+        let module = module_of(&root, &file);
+        let Some(command) = module.first().filter(|m| COMMANDS.contains(&m.as_str())) else {
+            continue;
+        };
+        let text = std::fs::read_to_string(&file).unwrap();
+        let code = text.split("#[cfg(test)]").next().unwrap_or_default();
+        for target in references(&module, code) {
+            let other = target.first().filter(|t| *t != command);
+            assert!(
+                !other.is_some_and(|t| COMMANDS.contains(&t.as_str())),
+                "{}: the command `{command}` uses the command `{}`: move what both use below \
+                 the commands",
+                file.display(),
+                target.join("::")
+            );
+            checked += 1;
+        }
+    }
+    assert!(checked > 50, "{checked} references");
+}
+
 /// Checks the rule above under `root`; how many references it read.
 fn references_back_into_mod_rs(root: &Path) -> usize {
     let mut checked = 0;

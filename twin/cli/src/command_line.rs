@@ -1,7 +1,7 @@
 //! The `twin` command line: clap's definition of every command, the dispatch to each command's
 //! module, and the reference page generated from the definition.
 
-use crate::analysis;
+use crate::analyze;
 use crate::bench;
 use crate::calibrate;
 use crate::compare;
@@ -48,7 +48,7 @@ pub enum Command {
     /// Run a seed paper's scenarios and put its claims next to the twin's figures.
     Reproduce(reproduce::ReproduceArgs),
     /// Analyse a machine's reduced model (the lathe's phase plane): CSV files and a 2D .rrd.
-    Analyze(analysis::AnalyzeArgs),
+    Analyze(analyze::AnalyzeArgs),
     /// Measure a frequency response (a tap test or shaker test on the twin): frf.csv and frf.rrd.
     Frf(frf::FrfArgs),
     /// Turn what a killed run left (`X.rrd.<random>.part`) into a complete recording.
@@ -101,7 +101,7 @@ pub fn dispatch(cli: Cli) -> Result<ExitCode, Failure> {
         Command::Compare(args) => compare::run(args, &registry),
         Command::Calibrate(args) => calibrate::run(args, &registry),
         Command::Fmu(args) => fmu::run(args, &registry),
-        Command::Analyze(args) => printed(analysis::run(args, &registry)),
+        Command::Analyze(args) => printed(analyze::run(args, &registry)),
         Command::Frf(args) => printed(frf::run(args, &registry).map_err(frf_failure)),
     }
 }

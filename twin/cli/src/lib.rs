@@ -5,6 +5,7 @@
 //! dispatches and exits.
 
 pub mod analysis;
+pub mod analyze;
 pub mod bench;
 pub mod calibrate;
 pub mod command_line;
@@ -17,14 +18,17 @@ mod fit_options;
 mod fit_tables;
 pub mod flags;
 pub mod fmu;
+pub mod frequency_response;
 pub mod frf;
 pub mod linearize;
 pub mod list;
 pub mod machine_link;
 pub mod opcua;
+pub mod papers;
 mod reference;
 pub mod reproduce;
 pub mod run;
+pub mod run_report;
 pub mod salvage;
 pub mod serve;
 pub mod shadow;

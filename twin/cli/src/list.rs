@@ -1,7 +1,7 @@
 //! `twin list`: the built-in scenarios, the papers `twin reproduce` knows and the registered
 //! controllers.
 
-use crate::reproduce::PAPERS;
+use crate::papers::PAPERS;
 use framework::Registry;
 use twin::BUILTIN_SCENARIOS;
 

@@ -1,14 +1,15 @@
 //! `twin run`: one scenario run headless into an .rrd recording, with its summary and, when
 //! asked, its commands and signals as a CSV or Parquet data file.
 
-use crate::failure::{Failure, EXIT_DIVERGED};
+use crate::failure::Failure;
 use crate::flags::{DurationFlag, EngineFlag, OutputFlags, SetFlag};
+use crate::run_report::finish;
 use crate::signals::stop_on_signals;
 use framework::Registry;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use twin::RunTable;
-use twin::{same_file, summary, LiveViewer, OutputFile, Overrides, RunSummary, Scenario, Twin};
+use twin::{same_file, summary, LiveViewer, OutputFile, Overrides, Scenario, Twin};
 
 /// `twin run` arguments.
 #[derive(Debug, Clone, clap::Args)]
@@ -89,28 +90,6 @@ pub fn run(args: &RunArgs, registry: &Registry) -> Result<ExitCode, Failure> {
     finish(&result, summary_file)
 }
 
-/// The end of a run as `twin run` and `twin serve` report it: its warnings on stderr, the
-/// summary JSON (when asked), and the exit code of a diverged or interrupted run.
-pub fn finish(result: &RunSummary, summary_file: Option<OutputFile>) -> Result<ExitCode, Failure> {
-    for warning in &result.warnings {
-        eprintln!("warning: {warning}");
-    }
-    if let Some(file) = summary_file {
-        summary::write_json(result, file)?;
-    }
-    Ok(match (&result.failure, &result.interrupted) {
-        (Some(failure), _) => {
-            eprintln!("error: {failure}");
-            ExitCode::from(EXIT_DIVERGED)
-        }
-        (None, Some(interrupted)) => {
-            eprintln!("{interrupted}: recording and summary are complete up to there");
-            ExitCode::from(128 + interrupted.signal.min(127) as u8)
-        }
-        (None, None) => ExitCode::SUCCESS,
-    })
-}
-
 /// Refuses two outputs at one path, and an unwritable data file before the run.
 fn check_outputs(args: &RunArgs, out: &Path) -> Result<(), Failure> {
     let outputs = [
@@ -141,16 +120,4 @@ fn check_outputs(args: &RunArgs, out: &Path) -> Result<(), Failure> {
         drop(OutputFile::create(path)?);
     }
     Ok(())
-}
-
-/// The `--summary` file of a command that also records to `out`, opened to be written at the
-/// end; refused when it is the recording's own path.
-pub fn summary_file(summary: Option<&Path>, out: &Path) -> Result<Option<OutputFile>, Failure> {
-    if let Some(path) = summary.filter(|p| same_file(p, out)) {
-        return Err(Failure::usage(format!(
-            "--summary {} is the recording's path too; give them different files",
-            path.display()
-        )));
-    }
-    Ok(summary.map(OutputFile::create).transpose()?)
 }

@@ -222,18 +222,7 @@ impl Arm {
                 "the spindle joint must not be actuated in the URDF: its own drive turns it".into(),
             ));
         }
-        let actuated = mechanism.actuated_joints();
-        if actuated != joints {
-            let names: Vec<&str> = (actuated.iter())
-                .map(|&j| mechanism.joints[j].name.as_str())
-                .collect();
-            return Err(bad(format!(
-                "the URDF must actuate {} in that order and no other joint (it actuates: {}); \
-                 give the others no <limit effort>",
-                JOINTS.join(", "),
-                names.join(", ")
-            )));
-        }
+        actuated_in_order(mechanism, joints).map_err(bad)?;
         let cutter_link = link(MACHINE, mechanism, "cutter")?;
         let rotor_inertia = mechanism.links[cutter_link].inertial.map_or(0.0, |i| i.izz);
         let spindle = Spindle::new(params.spindle, rotor_inertia).map_err(bad)?;
@@ -338,6 +327,24 @@ impl Arm {
         at_limit[3] = self.spindle.drive.at_limit();
         (currents, at_limit)
     }
+}
+
+/// Refuses a URDF that actuates other joints than the arm's `joints`, or them in another order:
+/// the drives take the commands in the URDF's actuator order.
+fn actuated_in_order(mechanism: &Mechanism, joints: [usize; 3]) -> Result<(), String> {
+    let actuated = mechanism.actuated_joints();
+    if actuated == joints {
+        return Ok(());
+    }
+    let names: Vec<&str> = (actuated.iter())
+        .map(|&j| mechanism.joints[j].name.as_str())
+        .collect();
+    Err(format!(
+        "the URDF must actuate {} in that order and no other joint (it actuates: {}); give the \
+         others no <limit effort>",
+        JOINTS.join(", "),
+        names.join(", ")
+    ))
 }
 
 /// The drives of the arm joints (`joints`, in [`JOINTS`]' order), each checked; `None` where the

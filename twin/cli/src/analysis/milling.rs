@@ -16,8 +16,8 @@
 
 use super::error::AnalysisError;
 use super::files::{create_dir, write_text};
-use crate::frf::file::read_csv;
-use crate::frf::fit::{fit_mode, ModalFit};
+use crate::frequency_response::file::read_csv;
+use crate::frequency_response::fit::{fit_mode, ModalFit};
 use framework::Registry;
 use models::milling::stability::{
     limiting_depth, lobe_diagram, CutGeometry, LobePoint, SemiDiscretization, ToolModes,

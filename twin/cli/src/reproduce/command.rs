@@ -2,9 +2,10 @@
 //! file and a table.
 
 use super::error::ReproduceError;
-use super::papers::PAPERS;
+use super::papers::reproduction;
 use super::report::{Report, Verdict};
 use crate::flags::EngineFlag;
+use crate::papers::PAPERS;
 use framework::Registry;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -57,7 +58,11 @@ pub fn reproduce(
         path: out_dir.display().to_string(),
         reason: e.to_string(),
     })?;
-    let report = (entry.run)(out_dir, registry, engine)?;
+    let run = reproduction(paper).ok_or_else(|| ReproduceError::Unknown {
+        name: paper.to_string(),
+        known: PAPERS.iter().map(|p| p.name).collect::<Vec<_>>().join(", "),
+    })?;
+    let report = run(out_dir, registry, engine)?;
     write_report(&report, out_dir)?;
     Ok(report)
 }

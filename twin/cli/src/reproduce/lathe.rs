@@ -138,7 +138,7 @@ fn pair(forces: [f64; TOOLS]) -> String {
 }
 
 fn phase_plane(gains: Gains, out_dir: &Path, name: &str) -> Result<PhasePlane, ReproduceError> {
-    let as_output = |e: crate::analysis::AnalysisError| ReproduceError::Output {
+    let as_output = |e: crate::analysis::error::AnalysisError| ReproduceError::Output {
         path: out_dir.join(name).display().to_string(),
         reason: e.to_string(),
     };

@@ -17,5 +17,4 @@ mod whitworth;
 
 pub use command::{reproduce, run, to_table, ReproduceArgs};
 pub use error::ReproduceError;
-pub use papers::{Paper, PAPERS};
 pub use report::{Claim, Report, Verdict};

@@ -108,7 +108,7 @@ pub fn serve(args: &ServeArgs, registry: &Registry) -> Result<ExitCode, Failure>
         .out
         .clone()
         .unwrap_or_else(|| PathBuf::from(format!("{}.rrd", loaded.scenario.name)));
-    let summary_file = crate::run::summary_file(args.outputs.summary.as_deref(), &out)?;
+    let summary_file = crate::run_report::summary_file(args.outputs.summary.as_deref(), &out)?;
     let machine = loaded.scenario.machine.clone();
     // The period the run updates its controller at: whole physics steps.
     let control_period = loaded.scenario.control_every() as f64 * loaded.scenario.dt;
@@ -146,7 +146,7 @@ pub fn serve(args: &ServeArgs, registry: &Registry) -> Result<ExitCode, Failure>
     if !args.lockstep {
         println!("deadline misses: {misses}");
     }
-    crate::run::finish(&result, summary_file)
+    crate::run_report::finish(&result, summary_file)
 }
 
 /// The twin served: the client's commands in place of the scenario's controller, or

@@ -54,7 +54,7 @@ pub fn shadow(args: &ShadowArgs, registry: &Registry) -> Result<ExitCode, Failur
         .out
         .clone()
         .unwrap_or_else(|| PathBuf::from(format!("{}-shadow.rrd", shadow.scenario_name())));
-    let summary_file = crate::run::summary_file(args.outputs.summary.as_deref(), &out)?;
+    let summary_file = crate::run_report::summary_file(args.outputs.summary.as_deref(), &out)?;
     let live = args.outputs.connect.clone().map(LiveViewer::Connect);
     let id = format!("{}-shadow-{}", shadow.scenario_name(), feed.digest());
     // The server is bound before the recording is made: a refused --publish leaves no file.

@@ -2,7 +2,8 @@
 //! a tap test or a shaker measures it. The twin runs the scenario (its controller as the scenario
 //! says) with an effort from outside the machine added on the joint
 //! ([`twin::Twin::with_joint_effort`]), the output is sampled, and the response is estimated by H1
-//! with Welch averaging ([`estimate`]); the peak's mode is fitted ([`fit`]).
+//! with Welch averaging ([`estimate`](crate::frequency_response::estimate)); the peak's mode is
+//! fitted ([`fit`](crate::frequency_response::fit)).
 //!
 //! Excitations, each held over a sample period: `impulse`, a one-sample pulse of the amplitude
 //! at the start of each segment, no window (the response dies within its segment); `chirp`, a
@@ -10,13 +11,10 @@
 //! ± the amplitude (seeded), Hann window, segments overlapping by half. Chirp and noise run one
 //! segment first to settle (not averaged).
 
-pub mod estimate;
-pub mod file;
-pub mod fit;
-
 use crate::flags::SetFlag;
-use estimate::{h1_estimate, Complex, FrfLine, Segments, Window};
-use fit::{fit_mode, ModalFit};
+use crate::frequency_response::estimate::{h1_estimate, Complex, FrfLine, Segments, Window};
+use crate::frequency_response::file;
+use crate::frequency_response::fit::{fit_mode, ModalFit};
 use std::f64::consts::TAU;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
