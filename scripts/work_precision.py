@@ -7,8 +7,10 @@ the simulated seconds each computes per wall second.
   off, no stock, as bench-mujoco's arm-fall case): the joints' angles. A tree: MuJoCo has no
   constraint to soften, and only its default settings are shown.
 
-- The twin: the exact engine (RK4, loops closed to 1e-12 m) at each step, its speed from
-  `twin bench` with recording off and on, its error from `twin run --csv` (`true.ram.position`).
+- The twin: the exact engine (loops closed to 1e-12 m) with each of its integrators (`[solver]
+  integrator`: RK4, the explicit midpoint rule, semi-implicit Euler) at each step, its speed
+  from `twin bench` with recording off and on, its error from `twin run --csv`
+  (`true.ram.position`).
 - MuJoCo: Euler, implicitfast and RK4 at each step, with its default constraint settings
   (solref [0.02, 1], solimp [0.9, 0.95, 0.001, 0.5, 2]) and with stiff ones (solref 2·dt,
   solimp 0.9999, as scripts/mujoco_machine.py's Machine sets), timed by `mujoco.rollout` over
@@ -36,6 +38,8 @@ CRANK_SPEED = -2.0 * np.pi
 INTEGRATORS = {"Euler": mujoco.mjtIntegrator.mjINT_EULER,
                "implicitfast": mujoco.mjtIntegrator.mjINT_IMPLICITFAST,
                "RK4": mujoco.mjtIntegrator.mjINT_RK4}
+TWIN_INTEGRATORS = {"RK4": "rk4", "midpoint": "midpoint",
+                    "semi-implicit Euler": "semi_implicit_euler"}
 DEFAULT_SOLREF = (0.02, 1.0)
 DEFAULT_SOLIMP = (0.9, 0.95, 0.001, 0.5, 2.0)
 
@@ -90,11 +94,13 @@ def cases(repo: str, make_fall) -> dict:
     }
 
 
-def twin_positions(command, twin: str, case: dict, folder: str, dt: float):
-    """The twin's positions of the case's joints over the horizon at `dt`: (time, rows)."""
+def twin_positions(command, twin: str, case: dict, folder: str, dt: float, sets=()):
+    """The twin's positions of the case's joints over the horizon at `dt` (with the scenario
+    values `sets`): (time, rows)."""
     path = case["scenario"](folder, dt, HORIZON)
     csv = os.path.splitext(path)[0] + ".csv"
-    command([twin, "run", path, "--csv", csv, "--out", csv[:-4] + ".rrd"], folder)
+    flags = [word for value in sets for word in ("--set", value)]
+    command([twin, "run", path, "--csv", csv, "--out", csv[:-4] + ".rrd", *flags], folder)
     names, table = mm.read_csv(csv)
     columns = [names.index(f"true.{j}.position") for j in case["joints"]]
     return table[:, 0], table[:, columns]
@@ -165,15 +171,18 @@ def measure(command, bench, twin: str, case: dict, folder: str, duration: float,
     os.makedirs(folder, exist_ok=True)
     reference = twin_positions(command, twin, case, folder, REFERENCE_DT)
     points = []
-    for dt in STEPS:
-        t, q = twin_positions(command, twin, case, folder, dt)
-        path = case["scenario"](folder, dt, duration)
-        speeds = [bench(twin, path, duration, folder) for _ in range(repeats)]
-        error = error_against(reference, t, q)
-        for label, steps_per_s in (("twin RK4", max(s[0] for s in speeds)),
-                                   ("twin RK4, recorded", max(s[1] for s in speeds))):
-            points.append({"family": label, "dt": dt, "error": error,
-                           "realtime": steps_per_s * dt, "steps_per_s": steps_per_s})
+    for integrator, name in TWIN_INTEGRATORS.items():
+        sets = [f"solver.integrator={name}"]
+        for dt in STEPS:
+            t, q = twin_positions(command, twin, case, folder, dt, sets)
+            path = case["scenario"](folder, dt, duration)
+            speeds = [bench(twin, path, duration, folder, sets) for _ in range(repeats)]
+            error = error_against(reference, t, q)
+            for label, steps_per_s in ((f"twin {integrator}", max(s[0] for s in speeds)),
+                                       (f"twin {integrator}, recorded",
+                                        max(s[1] for s in speeds))):
+                points.append({"family": label, "dt": dt, "error": error,
+                               "realtime": steps_per_s * dt, "steps_per_s": steps_per_s})
     for stiff in case["stiffness"]:
         for integrator in INTEGRATORS:
             for dt in STEPS:
@@ -199,8 +208,9 @@ def plot(results: dict, path: str) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, ax = plt.subplots(figsize=(9, 6), dpi=110)
+    fig, ax = plt.subplots(figsize=(10, 7), dpi=110)
     families = dict.fromkeys(p["family"] for p in results["points"])
+    ax.set_prop_cycle(color=[plt.get_cmap("tab20")(i % 20) for i in range(len(families))])
     styles = {"twin": ("-", "o", 2.5), "default": ("--", "s", 1.2), "stiff": (":", "^", 1.2)}
     for family in families:
         pts = [p for p in results["points"] if p["family"] == family and np.isfinite(p["error"])]

@@ -36,7 +36,8 @@ pub use linear::{Channel, LinearModel, ModelError, OperatingPoint};
 pub use machines::{ActuatorKind, ActuatorSpec, PointAt, PointSpec, SpringSpec};
 pub use output::{same_file, OutputError, OutputFile};
 pub use physics::{
-    AllowedContact, BodyKind, BodyShape, BodySpec, Collision, ContactOptions, Engine, SolverOptions,
+    AllowedContact, BodyKind, BodyShape, BodySpec, Collision, ContactOptions, Engine, Integrator,
+    SolverOptions,
 };
 pub use recording::{LiveViewer, RecordingError};
 pub use run::{

@@ -1,7 +1,7 @@
 //! `twin bench`: steps per second of scenarios, with and without recording.
 
 use crate::failure::Failure;
-use crate::flags::EngineFlag;
+use crate::flags::{EngineFlag, SetFlag};
 use framework::Registry;
 use std::process::ExitCode;
 use twin::{Engine, Scenario, Twin, BUILTIN_SCENARIOS};
@@ -9,6 +9,7 @@ use twin::{Engine, Scenario, Twin, BUILTIN_SCENARIOS};
 /// `twin bench` arguments.
 #[derive(Debug, Clone, clap::Args)]
 #[command(mut_arg("engine", |arg| arg.help("The engine of every measurement (as `twin run --engine`); default: each scenario's own")))]
+#[command(mut_arg("set", |arg| arg.help("Override a value of every scenario measured (as `twin run --set`), e.g. solver.integrator=midpoint")))]
 pub struct BenchArgs {
     /// Built-in scenario names or scenario .toml files; none: every built-in scenario.
     pub scenarios: Vec<String>,
@@ -17,6 +18,8 @@ pub struct BenchArgs {
     pub duration: f64,
     #[command(flatten)]
     pub solver: EngineFlag,
+    #[command(flatten)]
+    pub values: SetFlag,
 }
 
 /// Runs `twin bench`: a table of each scenario measured bare and recording to a scratch
@@ -34,38 +37,44 @@ pub fn run(args: &BenchArgs, registry: &Registry) -> Result<ExitCode, Failure> {
         args.scenarios.clone()
     };
     println!(
-        "{:<24} {:>6} {:>9} {:>8} {:>8} {:>14} {:>14}",
-        "scenario", "engine", "dt (s)", "substeps", "steps", "steps/s bare", "steps/s rec."
+        "{:<24} {:>6} {:>19} {:>9} {:>8} {:>8} {:>14} {:>14}",
+        "scenario",
+        "engine",
+        "integrator",
+        "dt (s)",
+        "substeps",
+        "steps",
+        "steps/s bare",
+        "steps/s rec."
     );
     for name in &names {
         let mut rates = [0.0; 2];
-        let mut shape = (Engine::Exact, 0.0, 0, 0);
+        let mut shape = (Engine::Exact, "", 0.0, 0, 0);
         for (rate, recording) in rates.iter_mut().zip([None, Some(out.as_path())]) {
+            let set = args.solver.before(&args.values);
             let loaded = Scenario::open(name)
-                .and_then(|builder| match args.solver.engine {
-                    Some(engine) => builder.set("solver.engine", engine.name()),
-                    None => Ok(builder),
-                })
+                .and_then(|builder| (set.iter()).try_fold(builder, |b, value| b.assign(value)))
                 .and_then(|builder| builder.duration(args.duration).build(registry))
                 .map_err(|e| e.to_string())?;
             let solver = &loaded.scenario.solver;
-            let substeps = match solver.engine {
-                Engine::Exact => loaded.scenario.substeps,
-                Engine::Rapier => solver.rapier_substeps,
+            let (substeps, integrator) = match solver.engine {
+                Engine::Exact => (loaded.scenario.substeps, solver.integrator.name()),
+                Engine::Rapier => (solver.rapier_substeps, "–"),
             };
-            shape = (solver.engine, loaded.scenario.dt, substeps, 0);
+            shape = (solver.engine, integrator, loaded.scenario.dt, substeps, 0);
             let twin = Twin::new(loaded).map_err(|e| e.to_string())?;
             let result = twin.run(recording).map_err(|e| e.to_string())?;
-            shape.3 = result.steps;
+            shape.4 = result.steps;
             *rate = result.steps_per_s;
         }
         println!(
-            "{:<24} {:>6} {:>9} {:>8} {:>8} {:>14.0} {:>14.0}",
+            "{:<24} {:>6} {:>19} {:>9} {:>8} {:>8} {:>14.0} {:>14.0}",
             name,
             shape.0.name(),
             shape.1,
             shape.2,
             shape.3,
+            shape.4,
             rates[0],
             rates[1]
         );

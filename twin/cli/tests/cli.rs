@@ -518,3 +518,47 @@ fn frf_refuses_bad_input(dir: &Path) {
     assert!(String::from_utf8_lossy(&diverged.stderr).contains("tool_x.velocity"));
     assert!(!dir.join("diverged").exists());
 }
+
+#[test]
+fn an_integrator_is_the_exact_engines_and_bench_names_it() {
+    fails_naming(
+        &[
+            "run",
+            "whitworth-crank-pi",
+            "--engine",
+            "rapier",
+            "--set",
+            "solver.integrator=midpoint",
+            "--duration",
+            "0.01",
+        ],
+        &["solver.integrator = \"midpoint\" is the exact engine's"],
+        "integrator-rapier",
+    );
+    fails_naming(
+        &[
+            "run",
+            "whitworth-crank-pi",
+            "--set",
+            "solver.integrator=euler",
+        ],
+        &["solver.integrator", "euler"],
+        "integrator-unknown",
+    );
+    let dir = scratch("integrator-bench");
+    let args = [
+        "bench",
+        "whitworth-crank-pi",
+        "--duration",
+        "0.05",
+        "--set",
+        "solver.integrator=semi_implicit_euler",
+    ];
+    let output = twin(&args, &dir);
+    let stdout = String::from_utf8_lossy(&output.stdout);
+    assert!(output.status.success(), "{stdout}");
+    let row = (stdout.lines())
+        .find(|l| l.starts_with("whitworth-crank-pi"))
+        .unwrap_or_default();
+    assert!(row.contains("exact semi_implicit_euler"), "{stdout}");
+}

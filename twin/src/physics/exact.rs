@@ -5,7 +5,9 @@
 //! `<loop_joint>` as a holonomic constraint ([`super::dynamics`]), and advances them itself:
 //!
 //! 1. one classical Runge–Kutta (RK4) step of the constrained equations per substep, efforts and
-//!    loads held over the step — fourth order, so no numerical damping worth the name;
+//!    loads held over the step — fourth order, so no numerical damping worth the name (or, as
+//!    the scenario's `[solver] integrator` says, an explicit midpoint or a semi-implicit Euler
+//!    step: two evaluations or one);
 //! 2. joint limits as inelastic stops;
 //! 3. the loop closures made exact: Gauss–Newton on φ(q) = 0, mass-weighted, to 1e-12;
 //! 4. dry joint friction as one impulse per substep, which sticks the joint when it can;
@@ -15,6 +17,7 @@
 
 use super::dynamics::{Dynamics, HeldLoad, Inputs, Kinematics, Model};
 use super::held_closure::held_correction;
+use super::options::Integrator;
 use super::rapier_model::RapierModel;
 use super::state::{loop_gaps, Load, MechanismState};
 use super::tree::Tree;
@@ -30,8 +33,10 @@ const CLOSURE_ITERATIONS: usize = 8;
 pub(super) struct ExactSettings {
     pub dt: f64,
     pub gravity: [f64; 2],
-    /// RK4 substeps per step (efforts and loads are held over the whole step).
+    /// Substeps per step (efforts and loads are held over the whole step).
     pub substeps: usize,
+    /// How a substep is advanced.
+    pub integrator: Integrator,
 }
 
 #[derive(Clone)]
@@ -198,7 +203,11 @@ impl ExactEngine {
         }));
         let h = self.settings.dt / self.settings.substeps as f64;
         for _ in 0..self.settings.substeps {
-            self.runge_kutta(h);
+            match self.settings.integrator {
+                Integrator::Rk4 => self.runge_kutta(h),
+                Integrator::Midpoint => self.midpoint(h),
+                Integrator::SemiImplicitEuler => self.semi_implicit_euler(h),
+            }
             self.stop_at_limits();
             self.close_loops();
             if self.apply_friction(h) {
@@ -253,6 +262,75 @@ impl ExactEngine {
         for g in 0..n {
             q[g] += h / 6.0 * (v[g] + 2.0 * v2[g] + 2.0 * v3[g] + v4[g]);
             v[g] += h / 6.0 * (a1[g] + 2.0 * a2[g] + 2.0 * a3[g] + a4[g]);
+        }
+    }
+
+    /// One explicit midpoint step of (q, q̇) by `h`: the rates at the half step, taken from the
+    /// rates at the start; leaves `self.q`, `self.v` advanced (not yet projected).
+    fn midpoint(&mut self, h: f64) {
+        let Self {
+            model,
+            tree,
+            dynamics,
+            settings,
+            q,
+            v,
+            kin,
+            stage,
+            efforts,
+            loads,
+            ..
+        } = self;
+        let inputs = Inputs {
+            efforts,
+            loads,
+            gravity: settings.gravity,
+        };
+        let n = q.len();
+        dynamics.acceleration(model, kin, (q, v), &inputs, &mut stage.a[0]);
+        for g in 0..n {
+            stage.q[g] = q[g] + 0.5 * h * v[g];
+            stage.v[0][g] = v[g] + 0.5 * h * stage.a[0][g];
+        }
+        tree.pose(&stage.q, &mut stage.kin);
+        dynamics.acceleration(
+            model,
+            &stage.kin,
+            (&stage.q, &stage.v[0]),
+            &inputs,
+            &mut stage.a[1],
+        );
+        for g in 0..n {
+            q[g] += h * stage.v[0][g];
+            v[g] += h * stage.a[1][g];
+        }
+    }
+
+    /// One semi-implicit Euler step of (q, q̇) by `h`: the velocity from the acceleration at the
+    /// start, then the position from the new velocity; leaves `self.q`, `self.v` advanced (not
+    /// yet projected).
+    fn semi_implicit_euler(&mut self, h: f64) {
+        let Self {
+            model,
+            dynamics,
+            settings,
+            q,
+            v,
+            kin,
+            stage,
+            efforts,
+            loads,
+            ..
+        } = self;
+        let inputs = Inputs {
+            efforts,
+            loads,
+            gravity: settings.gravity,
+        };
+        dynamics.acceleration(model, kin, (q, v), &inputs, &mut stage.a[0]);
+        for g in 0..q.len() {
+            v[g] += h * stage.a[0][g];
+            q[g] += h * v[g];
         }
     }
 

@@ -17,6 +17,7 @@
 
 use super::dynamics::{HeldLoad, Inputs};
 use super::exact::{ExactEngine, ExactSettings};
+use super::options::Integrator;
 use super::state::{Load, MechanismState};
 use crate::mechanism::{Inertial, JointMotion, Mechanism};
 use nalgebra::{DMatrix, DVector};
@@ -71,6 +72,7 @@ impl ReducedDynamics {
             dt: 0.0,
             gravity,
             substeps: 1,
+            integrator: Integrator::Rk4,
         };
         let mut engine = ExactEngine::new(mechanism, settings);
         let model = &engine.model;

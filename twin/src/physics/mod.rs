@@ -30,8 +30,8 @@ mod tree;
 pub use contacts::{length, BodyShapes, Collision, ContactDetector};
 pub use linearize::{ReducedDynamics, ReducedError};
 pub use options::{
-    AllowedContact, BodyKind, BodyShape, BodySpec, ContactOptions, Engine, SolverOptions,
-    SolverSettings, MAX_SUBSTEPS,
+    AllowedContact, BodyKind, BodyShape, BodySpec, ContactOptions, Engine, Integrator,
+    SolverOptions, SolverSettings, MAX_SUBSTEPS,
 };
 pub use state::{Load, MechanismState, NO_DAMPING, NO_STIFFNESS};
 pub use stepping::Physics;

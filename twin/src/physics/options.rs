@@ -16,6 +16,8 @@ pub const MAX_SUBSTEPS: usize = 64;
 pub struct SolverOptions {
     /// Which engine steps the mechanism: exact by default.
     pub engine: Engine,
+    /// How the exact engine advances a substep: RK4 by default.
+    pub integrator: Integrator,
     /// Rapier substeps per physics step.
     pub rapier_substeps: usize,
     /// Rapier's internal PGS iterations per substep.
@@ -30,6 +32,7 @@ impl Default for SolverOptions {
     fn default() -> Self {
         Self {
             engine: Engine::Exact,
+            integrator: Integrator::Rk4,
             rapier_substeps: 4,
             rapier_iterations: 2,
             rapier_stabilization_iterations: 0,
@@ -54,6 +57,33 @@ impl Engine {
         match self {
             Engine::Exact => "exact",
             Engine::Rapier => "rapier",
+        }
+    }
+}
+
+/// How the exact engine advances the constrained equations over a substep (`[solver]
+/// integrator`). Whichever it is, the loops are then closed to 1e-12 m and the velocities
+/// projected on them, as after every substep.
+#[derive(Debug, Clone, Copy, Default, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum Integrator {
+    /// Classical Runge–Kutta, fourth order: four evaluations of the equations per substep.
+    #[default]
+    Rk4,
+    /// The explicit midpoint rule, second order: two evaluations.
+    Midpoint,
+    /// Semi-implicit (symplectic) Euler, first order: one evaluation, the velocity first and
+    /// the position with the new velocity (MuJoCo's default integrator is of this kind).
+    SemiImplicitEuler,
+}
+
+impl Integrator {
+    /// The name a scenario uses.
+    pub fn name(self) -> &'static str {
+        match self {
+            Integrator::Rk4 => "rk4",
+            Integrator::Midpoint => "midpoint",
+            Integrator::SemiImplicitEuler => "semi_implicit_euler",
         }
     }
 }
@@ -254,9 +284,17 @@ fn positive(name: &str, values: &[f64]) -> Result<(), String> {
 }
 
 impl SolverOptions {
-    /// Every count between its least (1, or 0 for stabilization) and `MAX_SUBSTEPS`; else
-    /// what is wrong, in the scenario's words.
+    /// Every count between its least (1, or 0 for stabilization) and `MAX_SUBSTEPS`, and an
+    /// integrator other than RK4 only on the exact engine; else what is wrong, in the scenario's
+    /// words.
     pub fn validate(&self) -> Result<(), String> {
+        if self.engine == Engine::Rapier && self.integrator != Integrator::Rk4 {
+            return Err(format!(
+                "solver.integrator = \"{}\" is the exact engine's: the rapier engine integrates \
+                 as Rapier does; leave it out or use engine = \"exact\"",
+                self.integrator.name()
+            ));
+        }
         let counts = [
             ("rapier_substeps", self.rapier_substeps, 1),
             ("rapier_iterations", self.rapier_iterations, 1),
@@ -304,7 +342,7 @@ pub struct SolverSettings {
     pub dt: f64,
     /// Gravitational acceleration in the world frame [x, y], m/s².
     pub gravity: [f64; 2],
-    /// The exact engine's RK4 substeps per step (efforts and loads are held over the whole step).
+    /// The exact engine's substeps per step (efforts and loads are held over the whole step).
     pub substeps: usize,
     /// The engine and the rapier engine's settings (`[solver]`).
     pub solver: SolverOptions,

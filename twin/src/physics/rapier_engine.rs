@@ -35,7 +35,7 @@
 use super::contacts::{allowed_pairs, weld_groups};
 use super::dynamics::{Frame, HeldLoad};
 use super::exact::{ExactEngine, ExactSettings};
-use super::options::{BodyKind, BodySpec, ContactOptions, SolverSettings};
+use super::options::{BodyKind, BodySpec, ContactOptions, Integrator, SolverSettings};
 use super::rapier_model::{axis_frame, insert_links, insert_tree, locked_axes, mass_properties};
 use super::shapes::{from_parry, parry_shape, to_parry};
 use super::state::{loop_gaps, Load, MechanismState, NO_DAMPING, NO_STIFFNESS};
@@ -191,6 +191,7 @@ impl RapierEngine {
                 dt: settings.dt,
                 gravity: settings.gravity,
                 substeps: 1,
+                integrator: Integrator::Rk4,
             },
             substeps,
             efforts: Vec::new(),

@@ -30,6 +30,7 @@ impl Physics {
                         dt: settings.dt,
                         gravity: settings.gravity,
                         substeps: settings.substeps,
+                        integrator: settings.solver.integrator,
                     },
                 )),
                 settings.bodies.iter().map(BodySpec::placement).collect(),

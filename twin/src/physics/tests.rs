@@ -21,6 +21,7 @@ fn mass_matrix_matches_rapiers_own() {
             dt: 1e-3,
             gravity: [0.0, -9.81],
             substeps: 1,
+            integrator: Integrator::Rk4,
         },
     );
     let n = physics.q.len();
@@ -225,4 +226,67 @@ fn rapier_engine_hands_out_non_finite_state_as_nan() {
     physics.step(&[0.0], &[]);
     physics.read_state(&mut state);
     assert!(state.joint_positions[0].is_nan() || state.joint_velocities[0].is_nan());
+}
+
+/// The Whitworth coasting from one turn a second (gravity on, no effort) for 0.25 s at `dt`
+/// with `integrator`: the ram's position at the end, and the largest loop gap on the way.
+fn coast(integrator: Integrator, dt: f64) -> (f64, f64) {
+    let mechanism = whitworth();
+    let mut settings = SolverSettings::exact(dt, [0.0, -9.81], 1);
+    settings.solver.integrator = integrator;
+    let mut physics = Physics::new(&mechanism, settings);
+    let joint = |name: &str| {
+        (mechanism.joints.iter())
+            .position(|j| j.name == name)
+            .unwrap()
+    };
+    physics.set_joint_states(&[(joint("crank"), 0.0, -std::f64::consts::TAU)]);
+    let efforts = vec![0.0; mechanism.joints.len()];
+    let mut state = MechanismState::default();
+    let mut gap = 0.0_f64;
+    for _ in 0..(0.25 / dt).round() as usize {
+        physics.step(&efforts, &[]);
+        physics.read_state(&mut state);
+        gap = (state.loop_gaps.iter()).fold(gap, |m, g| m.max(g.abs()));
+    }
+    (state.joint_positions[joint("ram")], gap)
+}
+
+#[test]
+fn each_integrator_closes_the_loops_and_converges_at_its_order() {
+    let reference = coast(Integrator::Rk4, 1.0 / 16_000.0).0;
+    for (integrator, order) in [
+        (Integrator::Rk4, 4.0),
+        (Integrator::Midpoint, 2.0),
+        (Integrator::SemiImplicitEuler, 1.0),
+    ] {
+        let (coarse, coarse_gap) = coast(integrator, 2e-3);
+        let (fine, fine_gap) = coast(integrator, 1e-3);
+        let observed = ((coarse - reference).abs() / (fine - reference).abs()).log2();
+        assert!(
+            (observed - order).abs() < 0.5,
+            "{integrator:?}: order {observed:.2}, not {order} ({coarse:e}, {fine:e} m against \
+             {reference:e} m)"
+        );
+        // The closure holds φ to 1e-12; the gap between the loop frames that Rapier's poses
+        // give rounds a little above it (RK4: 1.4e-12 m).
+        let gap = coarse_gap.max(fine_gap);
+        assert!(gap <= 2e-12, "{integrator:?}: a loop gap of {gap:e} m");
+        println!("{integrator:?}: order {observed:.2}, loop gap {gap:.1e} m");
+    }
+}
+
+#[test]
+fn an_integrator_other_than_rk4_is_the_exact_engines_only() {
+    let mut options = SolverOptions {
+        integrator: Integrator::Midpoint,
+        ..SolverOptions::default()
+    };
+    assert_eq!(options.validate(), Ok(()));
+    options.engine = Engine::Rapier;
+    let error = options.validate().unwrap_err();
+    assert!(
+        error.contains("solver.integrator = \"midpoint\" is the exact engine's"),
+        "{error}"
+    );
 }
