@@ -360,11 +360,30 @@ fn no_module_uses_what_its_crate_root_defines() {
 /// (`twin::data`, `twin::calibration`, `twin::shadowing`) is named like its folder, and no file
 /// reaches back into its parent for what the parent defines.
 #[test]
-fn the_engines_mod_rs_files_only_declare_and_re_export() {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
+fn every_mod_rs_only_declares_and_re_exports() {
     let mut checked = 0;
-    for file in sources(&root) {
-        let folder = file.parent().and_then(|f| f.strip_prefix(&root).ok());
+    for crate_dir in ["twin/src", "twin/cli/src", "controllers/src", "models/src"] {
+        checked += mod_rs_definitions(&workspace().join(crate_dir), crate_dir);
+    }
+    // The check reads something: the engine's run/, machines/, data/, calibration/ and
+    // shadowing/, the command line's serve/, shadow/ and study/ at least.
+    assert!(checked >= 8, "{checked} mod.rs files");
+    let root = workspace().join("twin/src");
+    for folder in ["data", "calibration", "shadowing"] {
+        let lib = std::fs::read_to_string(root.join("lib.rs")).unwrap();
+        assert!(
+            lib.contains(&format!("\npub mod {folder};")),
+            "twin::{folder} is not its folder src/{folder}/"
+        );
+    }
+}
+
+/// Checks that no mod.rs under `root` (the crate folder `name`) defines anything; how many it
+/// read.
+fn mod_rs_definitions(root: &Path, name: &str) -> usize {
+    let mut checked = 0;
+    for file in sources(root) {
+        let folder = file.parent().and_then(|f| f.strip_prefix(root).ok());
         let Some(folder) = folder.map(|f| f.to_string_lossy().into_owned()) else {
             continue;
         };
@@ -377,20 +396,12 @@ fn the_engines_mod_rs_files_only_declare_and_re_export() {
         names.extend(code.filter(|l| l.starts_with("impl")).map(str::to_owned));
         assert!(
             names.is_empty(),
-            "twin/src/{folder}/mod.rs defines {}: move it into a file of the folder and re-export it",
+            "{name}/{folder}/mod.rs defines {}: move it into a file of the folder and re-export it",
             names.join(", ")
         );
         checked += 1;
     }
-    // The check reads something: run/, machines/, data/, calibration/ and shadowing/ at least.
-    assert!(checked >= 5, "{checked} mod.rs files");
-    for folder in ["data", "calibration", "shadowing"] {
-        let lib = std::fs::read_to_string(root.join("lib.rs")).unwrap();
-        assert!(
-            lib.contains(&format!("\npub mod {folder};")),
-            "twin::{folder} is not its folder src/{folder}/"
-        );
-    }
+    checked
 }
 
 #[test]
