@@ -203,11 +203,7 @@ impl ExactEngine {
         }));
         let h = self.settings.dt / self.settings.substeps as f64;
         for _ in 0..self.settings.substeps {
-            match self.settings.integrator {
-                Integrator::Rk4 => self.runge_kutta(h),
-                Integrator::Midpoint => self.midpoint(h),
-                Integrator::SemiImplicitEuler => self.semi_implicit_euler(h),
-            }
+            self.integrate(h);
             self.stop_at_limits();
             self.close_loops();
             if self.apply_friction(h) {
@@ -220,8 +216,9 @@ impl ExactEngine {
         }
     }
 
-    /// One RK4 step of (q, q̇) by `h`; leaves `self.q`, `self.v` advanced (not yet projected).
-    fn runge_kutta(&mut self, h: f64) {
+    /// One step of (q, q̇) by `h` with the scenario's integrator; leaves `self.q`, `self.v`
+    /// advanced (not yet projected).
+    fn integrate(&mut self, h: f64) {
         let Self {
             model,
             tree,
@@ -240,97 +237,20 @@ impl ExactEngine {
             loads,
             gravity: settings.gravity,
         };
-        let n = q.len();
-        dynamics.acceleration(model, kin, (q, v), &inputs, &mut stage.a[0]);
-        // Stage k starts from the previous stage's rates: (q + c·h·v_k, v + c·h·a_k).
-        for (k, step) in [h / 2.0, h / 2.0, h].into_iter().enumerate() {
-            for g in 0..n {
-                let rate = if k == 0 { v[g] } else { stage.v[k - 1][g] };
-                stage.q[g] = q[g] + step * rate;
-                stage.v[k][g] = v[g] + step * stage.a[k][g];
+        let mut accelerate = |kin: &Kinematics, state: (&[f64], &[f64]), out: &mut [f64]| {
+            dynamics.acceleration(model, kin, state, &inputs, out)
+        };
+        // The first stage is at the step's start, posed by the last step.
+        accelerate(kin, (q, v), &mut stage.a[0]);
+        match settings.integrator {
+            Integrator::Rk4 => runge_kutta(h, (q, v), stage, tree, &mut accelerate),
+            Integrator::Midpoint => midpoint(h, (q, v), stage, tree, &mut accelerate),
+            Integrator::SemiImplicitEuler => {
+                for g in 0..q.len() {
+                    v[g] += h * stage.a[0][g];
+                    q[g] += h * v[g];
+                }
             }
-            tree.pose(&stage.q, &mut stage.kin);
-            dynamics.acceleration(
-                model,
-                &stage.kin,
-                (&stage.q, &stage.v[k]),
-                &inputs,
-                &mut stage.a[k + 1],
-            );
-        }
-        let ([v2, v3, v4], [a1, a2, a3, a4]) = (&stage.v, &stage.a);
-        for g in 0..n {
-            q[g] += h / 6.0 * (v[g] + 2.0 * v2[g] + 2.0 * v3[g] + v4[g]);
-            v[g] += h / 6.0 * (a1[g] + 2.0 * a2[g] + 2.0 * a3[g] + a4[g]);
-        }
-    }
-
-    /// One explicit midpoint step of (q, q̇) by `h`: the rates at the half step, taken from the
-    /// rates at the start; leaves `self.q`, `self.v` advanced (not yet projected).
-    fn midpoint(&mut self, h: f64) {
-        let Self {
-            model,
-            tree,
-            dynamics,
-            settings,
-            q,
-            v,
-            kin,
-            stage,
-            efforts,
-            loads,
-            ..
-        } = self;
-        let inputs = Inputs {
-            efforts,
-            loads,
-            gravity: settings.gravity,
-        };
-        let n = q.len();
-        dynamics.acceleration(model, kin, (q, v), &inputs, &mut stage.a[0]);
-        for g in 0..n {
-            stage.q[g] = q[g] + 0.5 * h * v[g];
-            stage.v[0][g] = v[g] + 0.5 * h * stage.a[0][g];
-        }
-        tree.pose(&stage.q, &mut stage.kin);
-        dynamics.acceleration(
-            model,
-            &stage.kin,
-            (&stage.q, &stage.v[0]),
-            &inputs,
-            &mut stage.a[1],
-        );
-        for g in 0..n {
-            q[g] += h * stage.v[0][g];
-            v[g] += h * stage.a[1][g];
-        }
-    }
-
-    /// One semi-implicit Euler step of (q, q̇) by `h`: the velocity from the acceleration at the
-    /// start, then the position from the new velocity; leaves `self.q`, `self.v` advanced (not
-    /// yet projected).
-    fn semi_implicit_euler(&mut self, h: f64) {
-        let Self {
-            model,
-            dynamics,
-            settings,
-            q,
-            v,
-            kin,
-            stage,
-            efforts,
-            loads,
-            ..
-        } = self;
-        let inputs = Inputs {
-            efforts,
-            loads,
-            gravity: settings.gravity,
-        };
-        dynamics.acceleration(model, kin, (q, v), &inputs, &mut stage.a[0]);
-        for g in 0..q.len() {
-            v[g] += h * stage.a[0][g];
-            q[g] += h * v[g];
         }
     }
 
@@ -441,5 +361,56 @@ impl ExactEngine {
             state.link_angular_velocities.push(omega);
         }
         loop_gaps(mechanism, &state.link_poses, &mut state.loop_gaps);
+    }
+}
+
+/// The equations of motion at a stage: its pose, (q, q̇), and the accelerations written out.
+type Accelerate<'a> = dyn FnMut(&Kinematics, (&[f64], &[f64]), &mut [f64]) + 'a;
+
+/// One classical RK4 step of (q, q̇) by `h`, the first stage's accelerations in `stage.a[0]`.
+fn runge_kutta(
+    h: f64,
+    (q, v): (&mut [f64], &mut [f64]),
+    stage: &mut Stage,
+    tree: &mut Tree,
+    accelerate: &mut Accelerate,
+) {
+    let n = q.len();
+    // Stage k starts from the previous stage's rates: (q + c·h·v_k, v + c·h·a_k).
+    for (k, step) in [h / 2.0, h / 2.0, h].into_iter().enumerate() {
+        for g in 0..n {
+            let rate = if k == 0 { v[g] } else { stage.v[k - 1][g] };
+            stage.q[g] = q[g] + step * rate;
+            stage.v[k][g] = v[g] + step * stage.a[k][g];
+        }
+        tree.pose(&stage.q, &mut stage.kin);
+        accelerate(&stage.kin, (&stage.q, &stage.v[k]), &mut stage.a[k + 1]);
+    }
+    let ([v2, v3, v4], [a1, a2, a3, a4]) = (&stage.v, &stage.a);
+    for g in 0..n {
+        q[g] += h / 6.0 * (v[g] + 2.0 * v2[g] + 2.0 * v3[g] + v4[g]);
+        v[g] += h / 6.0 * (a1[g] + 2.0 * a2[g] + 2.0 * a3[g] + a4[g]);
+    }
+}
+
+/// One explicit midpoint step of (q, q̇) by `h`: the rates at the half step, reached with the
+/// first stage's (in `stage.a[0]`).
+fn midpoint(
+    h: f64,
+    (q, v): (&mut [f64], &mut [f64]),
+    stage: &mut Stage,
+    tree: &mut Tree,
+    accelerate: &mut Accelerate,
+) {
+    let n = q.len();
+    for g in 0..n {
+        stage.q[g] = q[g] + 0.5 * h * v[g];
+        stage.v[0][g] = v[g] + 0.5 * h * stage.a[0][g];
+    }
+    tree.pose(&stage.q, &mut stage.kin);
+    accelerate(&stage.kin, (&stage.q, &stage.v[0]), &mut stage.a[1]);
+    for g in 0..n {
+        q[g] += h * stage.v[0][g];
+        v[g] += h * stage.a[1][g];
     }
 }
