@@ -8,9 +8,15 @@
 //! as disturbances. It needs every independent coordinate driven: a tree's every moving joint,
 //! a closed loop's independent joints (the five-bar's two cranks), each with its gains and
 //! reference; an underactuated mechanism (the cart-pole) is refused, by name.
+//!
+//! A point of the scenario may be given a path instead (`[controller.params.points.<name>]`
+//! `x`, `y`, as joint-pid's): it moves the joints with no reference of their own, which are
+//! given the positions, rates and accelerations that put it on its path by the twin's own
+//! kinematics ([`PointFollower`](super::point_reference)); `<name>.reach` says how far off.
 
 use super::joint_reference;
 use super::model::{coordinate_signals, position_error, response, CoordinateSignals};
+use super::point_reference::{moved_joints, NamedJoint, PointFollower, PointReference};
 use crate::check::{finite, non_negative};
 use framework::{parse_params, Entry, Event, EventKind, ANY_MACHINE};
 use framework::{Controller, ControllerError, Dynamics, Measurement, PlantInterface};
@@ -30,6 +36,10 @@ pub struct ComputedTorqueParams {
     /// `[controller.params.joints.<joint>]`: one per independent coordinate.
     #[serde(default)]
     pub joints: BTreeMap<String, JointTracking>,
+    /// `[controller.params.points.<name>]`: a point of the scenario's `[points]` on a path (`x`,
+    /// `y`); it moves every joint named here that has no `reference` of its own.
+    #[serde(default)]
+    pub points: BTreeMap<String, PointReference>,
 }
 
 /// One joint's error dynamics and reference (SI).
@@ -44,6 +54,17 @@ pub struct JointTracking {
     pub reference: Option<Reference>,
     /// The position held without a reference, rad or m.
     pub target: f64,
+}
+
+/// The joints named, as the points' check reads them.
+fn named(params: &ComputedTorqueParams) -> Vec<NamedJoint<'_>> {
+    (params.joints.iter())
+        .map(|(joint, j)| NamedJoint {
+            joint,
+            own_reference: j.reference.is_some(),
+            target: j.target,
+        })
+        .collect()
 }
 
 /// A joint's checked gains and reference.
@@ -74,6 +95,7 @@ pub fn design(params: &ComputedTorqueParams) -> Result<Vec<TrackingGains>, Contr
             reference,
         });
     }
+    moved_joints(NAME, &params.points, &named(params))?;
     Ok(gains)
 }
 
@@ -89,6 +111,10 @@ struct Bound {
 /// The running law.
 pub struct ComputedTorque {
     gains: Vec<TrackingGains>,
+    /// The points' references and the joints they move.
+    points: Vec<(String, PointReference)>,
+    moved: Vec<String>,
+    follower: Option<PointFollower>,
     dynamics: Option<Arc<dyn Dynamics>>,
     actuators: usize,
     joints: Vec<Bound>,
@@ -102,8 +128,12 @@ pub struct ComputedTorque {
 impl ComputedTorque {
     /// Checks the parameters; the joints are bound to the mechanism's coordinates at `reset`.
     pub fn new(params: ComputedTorqueParams) -> Result<Self, ControllerError> {
+        let moved = moved_joints(NAME, &params.points, &named(&params))?;
         Ok(Self {
             gains: design(&params)?,
+            points: params.points.into_iter().collect(),
+            moved,
+            follower: None,
             dynamics: None,
             actuators: 0,
             joints: Vec::new(),
@@ -171,6 +201,11 @@ impl ComputedTorque {
     fn efforts(&mut self, measurement: &Measurement) -> Result<DVector<f64>, String> {
         let dynamics = self.dynamics.as_deref().ok_or("not bound to a plant")?;
         let k = self.joints.len();
+        let from_points = (self.follower.as_mut()).map(|f| {
+            let targets = f.targets(measurement);
+            let accelerations = f.accelerations(measurement.time, &targets);
+            (targets, accelerations)
+        });
         let mut wanted = DVector::zeros(k);
         for (i, j) in self.joints.iter_mut().enumerate() {
             let (q, v) = (
@@ -178,9 +213,18 @@ impl ComputedTorque {
                 measurement.get(j.signals.velocity),
             );
             (self.position[i], self.velocity[i]) = (q, v);
-            let r = j.gains.reference.sample(measurement.time);
-            j.error = position_error(r.position, q, j.signals.turns);
-            wanted[i] = r.acceleration + j.gains.kd * (r.rate - v) + j.gains.kp * j.error;
+            let moved = self.moved.iter().position(|m| *m == j.gains.joint);
+            let (position, rate, acceleration) = match (moved, &from_points) {
+                (Some(m), Some((targets, accelerations))) => {
+                    (targets[m][0], targets[m][1], accelerations[m])
+                }
+                _ => {
+                    let r = j.gains.reference.sample(measurement.time);
+                    (r.position, r.rate, r.acceleration)
+                }
+            };
+            j.error = position_error(position, q, j.signals.turns);
+            wanted[i] = acceleration + j.gains.kd * (rate - v) + j.gains.kp * j.error;
         }
         let answer = response(dynamics, self.actuators, &self.position, &self.velocity)?;
         // q̈ = a₀ + M⁻¹·S·u: the coordinates' own actuators, u = (M⁻¹·S_c)⁻¹·(q̈_wanted − a₀).
@@ -217,6 +261,10 @@ impl Controller for ComputedTorque {
         }
         let dynamics = Arc::clone(plant.dynamics(NAME)?);
         self.bind(plant, dynamics.as_ref())?;
+        self.follower = match self.points.is_empty() {
+            true => None,
+            false => Some(PointFollower::bind(NAME, &self.points, &self.moved, plant)?),
+        };
         let k = self.joints.len();
         (self.position, self.velocity) = (vec![0.0; k], vec![0.0; k]);
         self.actuators = plant.actuators.len();
@@ -248,15 +296,23 @@ impl Controller for ComputedTorque {
     }
 
     fn internals(&self) -> Vec<SignalSpec> {
-        (self.gains.iter())
-            .map(|g| SignalSpec::new(format!("{}.error", g.joint), Unit::Dimensionless, "errors"))
-            .collect()
+        let errors = (self.gains.iter())
+            .map(|g| SignalSpec::new(format!("{}.error", g.joint), Unit::Dimensionless, "errors"));
+        let reach = (self.points.iter())
+            .map(|(name, _)| SignalSpec::new(format!("{name}.reach"), Unit::Metre, "errors"));
+        errors.chain(reach).collect()
     }
 
     fn internal_values(&self, values: &mut [f64]) {
         for (value, g) in values.iter_mut().zip(&self.gains) {
             let bound = self.joints.iter().find(|j| j.gains.joint == g.joint);
             *value = bound.map_or(0.0, |j| j.error);
+        }
+        if let Some(follower) = &self.follower {
+            let reach = values.iter_mut().skip(self.gains.len());
+            for (value, distance) in reach.zip(&follower.reach) {
+                *value = *distance;
+            }
         }
     }
 

@@ -15,7 +15,7 @@
 //! ([`PointFollower`](super::point_reference)), and `<name>.reach` says how far it is off.
 
 use super::joint_reference;
-use super::point_reference::{PointFollower, PointReference};
+use super::point_reference::{moved_joints, NamedJoint, PointFollower, PointReference};
 use crate::check::{finite, non_negative};
 use framework::{parse_params, Entry, ANY_MACHINE};
 use framework::{Controller, ControllerError, Measurement, PlantInterface, SignalSpec, Unit};
@@ -101,58 +101,19 @@ pub fn design(params: &JointPidParams) -> Result<Vec<LoopGains>, ControllerError
             follow_reference: l.follow_reference,
         });
     }
-    check_points(params, &gains)?;
+    moved_joints(NAME, &params.points, &named(&gains))?;
     Ok(gains)
 }
 
-/// The joints the points move: those with no reference of their own.
-fn moved_by_points(params: &JointPidParams, gains: &[LoopGains]) -> Vec<String> {
-    if params.points.is_empty() {
-        return Vec::new();
-    }
+/// The joints the loops name, as the points' check reads them.
+fn named(gains: &[LoopGains]) -> Vec<NamedJoint<'_>> {
     (gains.iter())
-        .filter(|g| g.reference.is_none() && !g.follow_reference)
-        .map(|g| g.joint.clone())
+        .map(|g| NamedJoint {
+            joint: &g.joint,
+            own_reference: g.reference.is_some() || g.follow_reference,
+            target: g.target,
+        })
         .collect()
-}
-
-/// Each point names a component; the points do not ask more components than joints they move,
-/// and those joints take no target.
-fn check_points(params: &JointPidParams, gains: &[LoopGains]) -> Result<(), ControllerError> {
-    let mut components = 0;
-    for (name, point) in &params.points {
-        let key = format!("points.{name}");
-        if point.components().next().is_none() {
-            return Err(ControllerError::parameter_table(
-                NAME,
-                key,
-                "give the point's path along x, y or both: x = { kind = … }",
-            ));
-        }
-        for (axis, reference) in point.components() {
-            joint_reference::check(NAME, &format!("{key}.{}", ["x", "y"][axis]), reference)?;
-            components += 1;
-        }
-    }
-    let moved = moved_by_points(params, gains);
-    if let Some(g) = (gains.iter()).find(|g| moved.contains(&g.joint) && g.target != 0.0) {
-        return Err(ControllerError::parameter_table(
-            NAME,
-            format!("joints.{}.target", g.joint),
-            "a joint the points move takes its setpoint from them; leave target out",
-        ));
-    }
-    if components > moved.len() {
-        return Err(ControllerError::parameter_table(
-            NAME,
-            "points",
-            format!(
-                "{components} components of points to follow and {} joints to move them (the joints with no reference of their own): name more joints, or fewer components",
-                moved.len()
-            ),
-        ));
-    }
-    Ok(())
 }
 
 /// A loop bound to the plant: where its signals and actuator are, and its state.
@@ -185,7 +146,7 @@ impl JointPid {
     pub fn new(params: JointPidParams) -> Result<Self, ControllerError> {
         let gains = design(&params)?;
         Ok(Self {
-            moved: moved_by_points(&params, &gains),
+            moved: moved_joints(NAME, &params.points, &named(&gains))?,
             points: params.points.into_iter().collect(),
             follower: None,
             gains,

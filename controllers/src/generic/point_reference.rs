@@ -1,7 +1,7 @@
-//! A point's reference for `joint-pid` (`[controller.params.points.<name>] x = …, y = …`, each
-//! any [`Reference`], m): the joints it moves are given the positions that put the scenario's
-//! point `[points.<name>]` there, by the twin's own kinematics (loops closed), and the rates
-//! that move it at the reference's rate.
+//! A point's reference for `joint-pid` and `computed-torque` (`[controller.params.points.<name>]
+//! x = …, y = …`, each any [`Reference`], m): the joints it moves are given the positions that
+//! put the scenario's point `[points.<name>]` there, by the twin's own kinematics (loops closed),
+//! the rates that move it at the reference's rate, and (for computed-torque) the accelerations.
 //!
 //! Each update solves p(q) = p_r(t) for the moved joints by Gauss–Newton from the last
 //! solution (the first from the measured positions, so the mechanism keeps the branch it is
@@ -9,7 +9,9 @@
 //! by central differences of the engine's point. More joints than components take the least
 //! motion (J⁺ = Jᵀ(JJᵀ)⁻¹). The rates are q̇_r = J⁺·ṗ_r. A point out of reach takes the joints
 //! as near as the steps get it, at rest, and the law says so in `<point>.reach`: the distance
-//! still to go, m. The path may not start where the mechanism is stretched out straight (or at
+//! still to go, m. The accelerations are q̈_r = J⁺·(p̈_r − ∂²p[q̇_r, q̇_r]): the path's
+//! acceleration less what the joints' rates make by themselves along a curved path (its second
+//! derivative along q̇_r by central differences). The path may not start where the mechanism is stretched out straight (or at
 //! any place where J loses rank): there the angles cannot say which way to bend.
 
 use super::model::coordinate_signals;
@@ -17,6 +19,7 @@ use framework::{ControllerError, Dynamics, Measurement, PlantInterface};
 use models::reference::Reference;
 use nalgebra::{DMatrix, DVector};
 use serde::Deserialize;
+use std::collections::BTreeMap;
 use std::sync::Arc;
 
 /// `[controller.params.points.<name>]`: the point's reference along x and y in the machine's
@@ -40,6 +43,58 @@ impl PointReference {
     }
 }
 
+/// One joint a law names, for [`moved_joints`]: its name, whether it has a reference of its own
+/// (or follows another), and its target.
+pub(crate) struct NamedJoint<'a> {
+    pub joint: &'a str,
+    pub own_reference: bool,
+    pub target: f64,
+}
+
+/// Checks `points` against the joints a law names, and returns the joints they move: those with
+/// no reference of their own. Each point names a component; the points ask no more components
+/// than joints they move, and those joints take no target.
+pub(crate) fn moved_joints(
+    controller: &str,
+    points: &BTreeMap<String, PointReference>,
+    joints: &[NamedJoint],
+) -> Result<Vec<String>, ControllerError> {
+    let refuse = |key: String, reason: String| {
+        Err(ControllerError::parameter_table(controller, key, reason))
+    };
+    let mut components = 0;
+    for (name, point) in points {
+        let key = format!("points.{name}");
+        if point.components().next().is_none() {
+            let reason = "give the point's path along x, y or both: x = { kind = … }";
+            return refuse(key, reason.into());
+        }
+        for (axis, reference) in point.components() {
+            let key = format!("{key}.{}", ["x", "y"][axis]);
+            super::joint_reference::check(controller, &key, reference)?;
+            components += 1;
+        }
+    }
+    if points.is_empty() {
+        return Ok(Vec::new());
+    }
+    let moved: Vec<&NamedJoint> = joints.iter().filter(|j| !j.own_reference).collect();
+    if let Some(j) = moved.iter().find(|j| j.target != 0.0) {
+        let reason = "a joint the points move takes its setpoint from them; leave target out";
+        return refuse(format!("joints.{}.target", j.joint), reason.into());
+    }
+    if components > moved.len() {
+        return refuse(
+            "points".into(),
+            format!(
+                "{components} components of points to follow and {} joints to move them (the joints with no reference of their own): name more joints, or fewer components",
+                moved.len()
+            ),
+        );
+    }
+    Ok(moved.iter().map(|j| j.joint.to_owned()).collect())
+}
+
 /// Newton iterations per update at most, and the distance counted as reached, m.
 const ITERATIONS: usize = 30;
 const REACHED: f64 = 1e-12;
@@ -47,6 +102,8 @@ const REACHED: f64 = 1e-12;
 const DAMPING: f64 = 1e-8;
 /// The step of the central differences, rad or m.
 const STEP: f64 = 1e-6;
+/// How far along the rates the second differences probe, rad or m.
+const CURVE_STEP: f64 = 1e-4;
 
 /// The points' references bound to the plant's kinematics.
 pub(crate) struct PointFollower {
@@ -145,6 +202,36 @@ impl PointFollower {
         (self.moved.iter().enumerate())
             .map(|(k, &i)| [q[i], q_rates[k]])
             .collect()
+    }
+
+    /// Per moved joint (as [`PointFollower::targets`]), its acceleration reference at `time`,
+    /// with `targets` the last update's: J⁺·(p̈_r − ∂²p[q̇_r, q̇_r]) at the last solution. Zero
+    /// where there is none (the loops do not close there, or J loses rank).
+    pub(crate) fn accelerations(&self, time: f64, targets: &[[f64; 2]]) -> Vec<f64> {
+        self.path_accelerations(time, targets).map_or_else(
+            || vec![0.0; self.moved.len()],
+            |a| a.iter().copied().collect(),
+        )
+    }
+
+    fn path_accelerations(&self, time: f64, targets: &[[f64; 2]]) -> Option<DVector<f64>> {
+        let q = self.solution.as_deref()?;
+        let wanted = (self.components.iter()).map(|(_, _, r)| r.sample(time).acceleration);
+        let mut wanted = DVector::from_iterator(self.components.len(), wanted);
+        let speed = targets.iter().map(|t| t[1] * t[1]).sum::<f64>().sqrt();
+        if speed > 0.0 {
+            let s = CURVE_STEP / speed;
+            let along = |sign: f64| {
+                let mut probe = q.to_vec();
+                for (k, &i) in self.moved.iter().enumerate() {
+                    probe[i] += sign * s * targets[k][1];
+                }
+                self.places(&probe)
+            };
+            let (ahead, here, behind) = (along(1.0)?, self.places(q)?, along(-1.0)?);
+            wanted -= (ahead - 2.0 * here + behind) / (s * s);
+        }
+        least_motion(&self.jacobian(q)?, &wanted)
     }
 
     /// The components' places at q, stacked; None where the loops do not close.
@@ -330,5 +417,44 @@ mod tests {
             signals: &signals,
         });
         assert!(follower.reach[0] > 0.04, "{:?} {targets:?}", follower.reach);
+    }
+
+    #[test]
+    fn the_accelerations_are_the_rates_own_derivative_along_the_path() {
+        // A path that curves in joint space: the tip along a circle's arc at a varying speed.
+        let point: PointReference = toml::from_str(
+            "x = { kind = \"sine\", amplitude = 0.05, angular_frequency = 3.0 }\n\
+             y = { kind = \"ramp\", rate = 0.02, initial = -0.45 }",
+        )
+        .unwrap();
+        let moved = ["shoulder", "elbow"].map(String::from);
+        let mut follower = PointFollower::bind(
+            "computed-torque",
+            &[("tip".into(), point)],
+            &moved,
+            &plant(),
+        )
+        .unwrap();
+        let signals = [0.5, 0.0, -1.1, 0.0];
+        let at = |follower: &mut PointFollower, time: f64| {
+            follower.targets(&Measurement {
+                time,
+                signals: &signals,
+            })
+        };
+        let (time, delta) = (0.7, 1e-4);
+        at(&mut follower, 0.0);
+        let before = at(&mut follower, time - delta);
+        let after = at(&mut follower, time + delta);
+        let now = at(&mut follower, time);
+        let accelerations = follower.accelerations(time, &now);
+        for k in 0..2 {
+            let differenced = (after[k][1] - before[k][1]) / (2.0 * delta);
+            assert!(
+                (accelerations[k] - differenced).abs() < 1e-5 * differenced.abs().max(1.0),
+                "joint {k}: {} against {differenced} rad/s²",
+                accelerations[k]
+            );
+        }
     }
 }
