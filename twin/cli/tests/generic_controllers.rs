@@ -306,6 +306,27 @@ fn lqr_moves_the_five_bar_through_its_loop_and_holds_it_with_the_static_torques(
     }
 }
 
+/// How far the double pendulum's tip is from the path of point.toml and
+/// point-computed-torque.toml (x a quintic sweep through waypoints, y held at −0.45 m) in the
+/// run CSV at `path`, from 1 s on: (time, along x, along y), s and m.
+fn tip_offsets(path: &Path) -> Vec<(f64, f64, f64)> {
+    let table = columns(path);
+    let sweep = [
+        [0.0, 0.0],
+        [1.0, 0.0],
+        [2.0, 0.15],
+        [3.0, -0.15],
+        [4.0, 0.0],
+    ];
+    (table["time"].iter().enumerate())
+        .filter(|(_, &t)| t >= 1.0)
+        .map(|(k, &t)| {
+            let (x, y) = (table["true.tip.x"][k], table["true.tip.y"][k]);
+            (t, x - quintic(&sweep, t), y + 0.45)
+        })
+        .collect()
+}
+
 // Measured (release): the inverse kinematics reaches the path at every update (1e-16 m left);
 // from 1 s, with joint-pid's gains and no feed-forward, the tip within 5.5 mm of the path along
 // x and 2.8 mm along y.
@@ -318,17 +339,8 @@ fn joint_pid_moves_the_double_pendulums_tip_along_a_path_in_the_plane() {
     ok(&twin(&[&args[..], &["--out", "run.rrd"]].concat(), &dir));
     let reach = metric(&dir, "run.json", "controller_final/tip.reach");
     assert!(reach < 1e-9, "the tip's path left {reach} m out of reach");
-    let table = columns(&dir.join("run.csv"));
-    let sweep = [
-        [0.0, 0.0],
-        [1.0, 0.0],
-        [2.0, 0.15],
-        [3.0, -0.15],
-        [4.0, 0.0],
-    ];
-    for (k, &t) in table["time"].iter().enumerate().filter(|(_, &t)| t >= 1.0) {
-        let (x, y) = (table["true.tip.x"][k], table["true.tip.y"][k]);
-        let off = (x - quintic(&sweep, t)).hypot(y + 0.45);
+    for (t, x, y) in tip_offsets(&dir.join("run.csv")) {
+        let off = x.hypot(y);
         assert!(off < 0.01, "at {t} s the tip is {off} m off its path");
     }
     // A joint the point moves takes no target; a point the scenario lacks is named.
@@ -368,17 +380,8 @@ fn computed_torque_moves_the_double_pendulums_tip_along_a_path_through_its_inver
     ok(&twin(&[&args[..], &["--out", "run.rrd"]].concat(), &dir));
     let reach = metric(&dir, "run.json", "controller_final/tip.reach");
     assert!(reach < 1e-9, "the tip's path left {reach} m out of reach");
-    let table = columns(&dir.join("run.csv"));
-    let sweep = [
-        [0.0, 0.0],
-        [1.0, 0.0],
-        [2.0, 0.15],
-        [3.0, -0.15],
-        [4.0, 0.0],
-    ];
-    for (k, &t) in table["time"].iter().enumerate().filter(|(_, &t)| t >= 1.0) {
-        let (x, y) = (table["true.tip.x"][k], table["true.tip.y"][k]);
-        let off = (x - quintic(&sweep, t)).abs().max((y + 0.45).abs());
+    for (t, x, y) in tip_offsets(&dir.join("run.csv")) {
+        let off = x.abs().max(y.abs());
         assert!(off < 2e-4, "at {t} s the tip is {off} m off its path");
     }
     // A joint the point moves takes no target, as with joint-pid.
