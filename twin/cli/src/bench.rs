@@ -47,11 +47,11 @@ pub fn run(args: &BenchArgs, registry: &Registry) -> Result<ExitCode, Failure> {
         "steps/s bare",
         "steps/s rec."
     );
+    let set = args.solver.before(&args.values);
     for name in &names {
         let mut rates = [0.0; 2];
         let mut shape = (Engine::Exact, "", 0.0, 0, 0);
         for (rate, recording) in rates.iter_mut().zip([None, Some(out.as_path())]) {
-            let set = args.solver.before(&args.values);
             let loaded = Scenario::open(name)
                 .and_then(|builder| (set.iter()).try_fold(builder, |b, value| b.assign(value)))
                 .and_then(|builder| builder.duration(args.duration).build(registry))

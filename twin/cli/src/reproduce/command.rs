@@ -43,13 +43,15 @@ pub fn reproduce(
     registry: &Registry,
     engine: Option<Engine>,
 ) -> Result<Report, ReproduceError> {
+    let unknown = || ReproduceError::Unknown {
+        name: paper.to_string(),
+        known: PAPERS.iter().map(|p| p.name).collect::<Vec<_>>().join(", "),
+    };
     let entry = PAPERS
         .iter()
         .find(|p| p.name == paper)
-        .ok_or_else(|| ReproduceError::Unknown {
-            name: paper.to_string(),
-            known: PAPERS.iter().map(|p| p.name).collect::<Vec<_>>().join(", "),
-        })?;
+        .ok_or_else(unknown)?;
+    let run = reproduction(paper).ok_or_else(unknown)?;
     if !entry.any_engine && engine.is_some_and(|e| e != Engine::Exact) {
         let paper = paper.to_string();
         return Err(ReproduceError::EngineFixed { paper });
@@ -57,10 +59,6 @@ pub fn reproduce(
     std::fs::create_dir_all(out_dir).map_err(|e| ReproduceError::Output {
         path: out_dir.display().to_string(),
         reason: e.to_string(),
-    })?;
-    let run = reproduction(paper).ok_or_else(|| ReproduceError::Unknown {
-        name: paper.to_string(),
-        known: PAPERS.iter().map(|p| p.name).collect::<Vec<_>>().join(", "),
     })?;
     let report = run(out_dir, registry, engine)?;
     write_report(&report, out_dir)?;
