@@ -620,12 +620,7 @@ fn joint_pid_turns_the_press_against_its_pressing_force() {
 /// The double pendulum's scenario in `dir` with both joints driven by a DC servo (5 N·m/A at
 /// the joint, 10 A) and joint-pid's gains turned from N·m into A.
 fn servo_pendulum(dir: &Path) -> PathBuf {
-    let text = std::fs::read_to_string(example()).unwrap();
-    let urdf = urdf_of("double-pendulum", "double_pendulum.urdf");
-    let mut text = text.replace(
-        "urdf = \"double_pendulum.urdf\"",
-        &format!("urdf = {urdf:?}"),
-    );
+    let mut text = pendulum_text();
     for (from, to) in [
         ("kp = 120.0", "kp = 24.0"),
         ("ki = 60.0 ", "ki = 12.0 "),
@@ -657,6 +652,121 @@ current_loop_period = 1.0e-4
     let path = dir.join("servo.toml");
     std::fs::write(&path, text).unwrap();
     path
+}
+
+/// The double pendulum's scenario, its URDF named by absolute path.
+fn pendulum_text() -> String {
+    let text = std::fs::read_to_string(example()).unwrap();
+    let urdf = urdf_of("double-pendulum", "double_pendulum.urdf");
+    text.replace(
+        "urdf = \"double_pendulum.urdf\"",
+        &format!("urdf = {urdf:?}"),
+    )
+}
+
+/// Every joint of the double pendulum driven through `kind` with the data sheet `sheet` (under
+/// `[actuators."*".<key>]`), its gains unchanged (the command is a torque), written to `dir`.
+fn motor_pendulum(dir: &Path, kind: &str, key: &str, sheet: &str) -> PathBuf {
+    let mut text = pendulum_text();
+    text.push_str(&format!(
+        "\n[actuators.\"*\"]\nkind = \"{kind}\"\n\n[actuators.\"*\".{key}]\n{sheet}"
+    ));
+    let path = dir.join(format!("{kind}.toml"));
+    std::fs::write(&path, text).unwrap();
+    path
+}
+
+/// The platform's gear motor and the feed axis's amplifier drive a generic machine's joints:
+/// the command a torque, the current a signal, the targets reached, bad data refused by entry.
+#[test]
+fn gear_motors_and_current_amplifiers_drive_the_double_pendulum_to_its_targets() {
+    let dir = scratch("generic-machine", "motors");
+    let motors = [
+        (
+            "gear-motor",
+            "motor",
+            "gear_ratio = 50.0\ntorque_constant = 0.1\nresistance = 1.0\ninductance = 1.0e-3\n\
+             supply_voltage = 48.0\ncurrent_limit = 10.0\n",
+            "actuators.\"*\".motor.inductance=0",
+        ),
+        (
+            "current-amplifier",
+            "amplifier",
+            "amplifier_gain = 2.0\nforce_constant = 5.0\ncurrent_limit = 10.0\n",
+            "actuators.\"*\".amplifier.force_constant=-5",
+        ),
+    ];
+    let count = std::f64::consts::TAU / 4096.0;
+    for (kind, key, sheet, bad) in motors {
+        let scenario = motor_pendulum(&dir, kind, key, sheet);
+        let run = [
+            "run",
+            scenario.to_str().unwrap(),
+            "--csv",
+            "run.csv",
+            "--out",
+            "run.rrd",
+        ];
+        ok(&twin(&run, &dir));
+        let table = columns(&dir.join("run.csv"));
+        let (current, command) = (&table["shoulder.current"], &table["effort.shoulder"]);
+        let n = current.len();
+        assert!(current.iter().all(|i| i.abs() <= 10.0 + 1e-9), "{kind}");
+        // Held, the current carries the bars' weight: the commanded torque at 5 N·m per ampere.
+        let held = command[n - 1] / 5.0;
+        assert!(
+            (current[n - 1] - held).abs() < 0.01 * held.abs().max(0.1),
+            "{kind}: {} A",
+            current[n - 1]
+        );
+        for (joint, target) in [("shoulder", 0.6), ("elbow", -0.4)] {
+            let positions = &table[&format!("true.{joint}.position")];
+            for &q in &positions[positions.len() - 1000..] {
+                assert!((q - target).abs() <= 4.0 * count, "{kind}: {joint} at {q}");
+            }
+        }
+        let entry = "actuators.\"*\"";
+        assert!(refused(&dir, &scenario, bad).contains(entry), "{bad}");
+        let effort = refused(&dir, &scenario, "actuators.\"*\".kind=effort");
+        assert!(
+            effort.contains(&format!("is for kind = \"{kind}\"")),
+            "{effort}"
+        );
+        let feed_axis = refused(
+            &dir,
+            Path::new("feed-axis-micromilling"),
+            &format!("actuators.table.kind={kind}"),
+        );
+        assert!(
+            feed_axis.contains("the generic machine's"),
+            "{kind}: {feed_axis}"
+        );
+    }
+    // A kind without its data sheet names the table it needs.
+    let scenario = motor_pendulum(&dir, motors[0].0, motors[0].1, motors[0].2);
+    let stderr = refused(&dir, &scenario, "actuators.\"*\".kind=current-amplifier");
+    assert!(
+        stderr.contains("needs its data sheet: [actuators.<joint>.amplifier]"),
+        "{stderr}"
+    );
+}
+
+/// What `twin run <scenario> --set <set>` says, refused in `dir` with exit code 1.
+fn refused(dir: &Path, scenario: &Path, set: &str) -> String {
+    let args = [
+        "run",
+        scenario.to_str().unwrap(),
+        "--duration",
+        "0.01",
+        "--set",
+        set,
+        "--out",
+        "x.rrd",
+    ];
+    let output = twin(&args, dir);
+    let stderr = String::from_utf8_lossy(&output.stderr).into_owned();
+    assert_eq!(output.status.code(), Some(1), "{set}: {stderr}");
+    stderr
 }
 
 #[test]

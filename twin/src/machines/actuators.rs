@@ -1,15 +1,23 @@
 //! `[actuators.<joint>]`: how the scenario has each actuator turn its command into the joint's
 //! effort — through the machine's own drive (`kind = "drive"`, the default), or directly, as an
 //! ideal drive (`kind = "effort"`: the command is the joint's torque, N·m, or force, N, clipped
-//! to the URDF `<limit effort>`), or on the generic machine through a DC servo drive from its data
-//! sheet (`kind = "dc-servo"` with `[actuators.<joint>.drive]`: the command is a current, A; the
-//! drive the arm's joints have, [`models::drive`]). `[actuators."*"]` speaks for every actuator
-//! of the machine; a joint's own entry overrides it.
+//! to the URDF `<limit effort>`), or, on the generic machine, through one of the built-in
+//! machines' drives from its data sheet:
+//! - `kind = "dc-servo"` with `[actuators.<joint>.drive]`: the arm's DC servo drive
+//!   ([`models::drive`]); the command is a current, A;
+//! - `kind = "gear-motor"` with `[actuators.<joint>.motor]`: the platform's wheel motor
+//!   ([`models::gear_motor`]); the command is a torque;
+//! - `kind = "current-amplifier"` with `[actuators.<joint>.amplifier]`: the feed axis's amplifier
+//!   and linear motor ([`models::current_amplifier`]); the command is a force (or torque).
+//!
+//! `[actuators."*"]` speaks for every actuator of the machine; a joint's own entry overrides it.
 
 use super::error::MachineError;
 use crate::mechanism::Mechanism;
 use framework::Actuator;
+use models::current_amplifier::AmplifierParams;
 use models::drive::DriveParams;
+use models::gear_motor::GearMotorParams;
 use serde::Deserialize;
 use std::collections::BTreeMap;
 
@@ -30,16 +38,62 @@ pub enum ActuatorKind {
     /// A DC servo drive from the entry's `drive` data sheet (the generic machine's): the command
     /// is the current, A, clipped to the drive's current limit; the joint gets `G·k_t·i`.
     DcServo,
+    /// A DC gear motor from the entry's `motor` data (the generic machine's): the command is
+    /// the joint's torque, turned into a current demand; the joint gets `N·k_t·i`.
+    GearMotor,
+    /// A static current amplifier and motor from the entry's `amplifier` data (the generic
+    /// machine's): the command is the joint's force (or torque), its current clipped.
+    CurrentAmplifier,
+}
+
+impl ActuatorKind {
+    /// The kind as a scenario spells it.
+    fn spelled(self) -> &'static str {
+        match self {
+            ActuatorKind::Drive => "drive",
+            ActuatorKind::Effort => "effort",
+            ActuatorKind::DcServo => "dc-servo",
+            ActuatorKind::GearMotor => "gear-motor",
+            ActuatorKind::CurrentAmplifier => "current-amplifier",
+        }
+    }
+
+    /// The data sheet the kind needs, its key and fields; `None` for a kind that needs none.
+    fn sheet(self) -> Option<(&'static str, &'static str)> {
+        match self {
+            ActuatorKind::Drive | ActuatorKind::Effort => None,
+            ActuatorKind::DcServo => Some(("drive", "torque_constant, back_emf_constant, resistance, inductance, gear_ratio, supply_voltage, current_limit, current_bandwidth, current_loop_period")),
+            ActuatorKind::GearMotor => Some(("motor", "gear_ratio, torque_constant, resistance, inductance, supply_voltage, current_limit")),
+            ActuatorKind::CurrentAmplifier => Some(("amplifier", "amplifier_gain, force_constant, current_limit")),
+        }
+    }
 }
 
 /// One entry of `[actuators]`.
 #[derive(Debug, Clone, Copy, Default, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields, default)]
 pub struct ActuatorSpec {
-    /// `drive` (the default), `effort` or `dc-servo`.
+    /// `drive` (the default), `effort`, `dc-servo`, `gear-motor` or `current-amplifier`.
     pub kind: ActuatorKind,
     /// A `dc-servo`'s data sheet (`[actuators.<joint>.drive]`, SI units).
     pub drive: Option<DriveParams>,
+    /// A `gear-motor`'s data (`[actuators.<joint>.motor]`, SI units).
+    pub motor: Option<GearMotorParams>,
+    /// A `current-amplifier`'s data (`[actuators.<joint>.amplifier]`, SI units).
+    pub amplifier: Option<AmplifierParams>,
+}
+
+impl ActuatorSpec {
+    /// The data sheets the entry gives, by key.
+    fn sheets(&self) -> impl Iterator<Item = &'static str> {
+        [
+            ("drive", self.drive.is_some()),
+            ("motor", self.motor.is_some()),
+            ("amplifier", self.amplifier.is_some()),
+        ]
+        .into_iter()
+        .filter_map(|(key, given)| given.then_some(key))
+    }
 }
 
 /// The scenario's `[actuators]` table: entries by joint name, or [`EVERY_ACTUATOR`].
@@ -65,25 +119,39 @@ pub fn key_of(specs: &ActuatorSpecs, joint: &str) -> String {
     }
 }
 
-/// Refuses a `dc-servo` on a machine with drives of its own (it is the generic machine's), and a
-/// data sheet on an entry of another kind.
+/// Refuses a drive from a data sheet on a machine with drives of its own (those are the generic
+/// machine's), a kind without its data sheet, and a data sheet on an entry of another kind.
 pub(super) fn check_kinds(specs: &ActuatorSpecs, generic: bool) -> Result<(), MachineError> {
     for (name, spec) in specs {
-        let bad = |reason: &str| MachineError::Actuator {
+        let bad = |reason: String| MachineError::Actuator {
             key: format!("actuators.{}", quoted(name)),
-            reason: reason.into(),
+            reason,
         };
-        match (spec.kind, spec.drive.is_some()) {
-            (ActuatorKind::DcServo, _) if !generic => {
-                return Err(bad("kind = \"dc-servo\" is the generic machine's: a built-in machine's drives are its own (\"drive\") or ideal (\"effort\")"));
-            }
-            (ActuatorKind::DcServo, false) => {
-                return Err(bad("kind = \"dc-servo\" needs its data sheet: [actuators.<joint>.drive] torque_constant, back_emf_constant, resistance, inductance, gear_ratio, supply_voltage, current_limit, current_bandwidth, current_loop_period"));
-            }
-            (ActuatorKind::Drive | ActuatorKind::Effort, true) => {
-                return Err(bad("a `drive` data sheet is for kind = \"dc-servo\""));
-            }
-            _ => {}
+        let kind = spec.kind.spelled();
+        let needed = spec.kind.sheet();
+        if needed.is_some() && !generic {
+            return Err(bad(format!("kind = \"{kind}\" is the generic machine's: a built-in machine's drives are its own (\"drive\") or ideal (\"effort\")")));
+        }
+        if let Some((key, fields)) = needed.filter(|(key, _)| !spec.sheets().any(|k| k == *key)) {
+            return Err(bad(format!(
+                "kind = \"{kind}\" needs its data sheet: [actuators.<joint>.{key}] {fields}"
+            )));
+        }
+        if let Some(extra) = spec
+            .sheets()
+            .find(|k| needed.is_none_or(|(key, _)| key != *k))
+        {
+            let owner = [
+                ActuatorKind::DcServo,
+                ActuatorKind::GearMotor,
+                ActuatorKind::CurrentAmplifier,
+            ]
+            .into_iter()
+            .find(|k| k.sheet().is_some_and(|(key, _)| key == extra))
+            .map_or("", ActuatorKind::spelled);
+            return Err(bad(format!(
+                "a `{extra}` data sheet is for kind = \"{owner}\""
+            )));
         }
     }
     Ok(())

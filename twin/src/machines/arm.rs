@@ -76,7 +76,7 @@ mod spindle;
 
 use super::actuators::{kind_of, ActuatorKind, ActuatorSpecs};
 use super::error::MachineError;
-use super::joint_drives::JointDrives;
+use super::joint_drives::{JointDrives, JointMotor};
 use super::machine::{effort_unit, Machine};
 use super::parts::{joint, link, process_params};
 use crate::mechanism::Mechanism;
@@ -215,7 +215,8 @@ impl Arm {
             joint(MACHINE, mechanism, JOINTS[2])?,
         ];
         let servos = joint_drives(mechanism, joints, &params.drives, actuators).map_err(bad)?;
-        let drives = JointDrives::with_servos(mechanism, joints.into_iter().zip(servos).collect());
+        let servos = servos.into_iter().map(|s| s.map(JointMotor::DcServo));
+        let drives = JointDrives::with_motors(mechanism, joints.into_iter().zip(servos).collect());
         let spindle_joint = joint(MACHINE, mechanism, "spindle")?;
         if mechanism.joints[spindle_joint].effort_limit.is_some() {
             return Err(bad(

@@ -7,7 +7,9 @@
 //! **Drive.** The controller's force command F* (N) is the amplifier's input through the voltage
 //! `u_c = F*/(k_t·K_a)`; the current amplifier gives `i = k_t·u_c`, limited to ±`current_limit`,
 //! and the motor pushes the table with `F_m = K_a·i`. The amplifier is taken as static (its current
-//! loop far faster than the position loop), as in the paper's model. Defaults: the paper's
+//! loop far faster than the position loop), as in the paper's model
+//! ([`models::current_amplifier`], the drive a generic machine's joint takes with `kind =
+//! "current-amplifier"`). Defaults: the paper's
 //! `k_t` = 2 A/V and `K_a` = 50 N/A (§V); a peak current of 10 A, the order of a linear motor of
 //! this force constant (500 N peak, which the URDF's `<limit effort>` matches). The current is the
 //! machine's measured signal `table_current` (A), the current that flowed over the last step.
@@ -27,12 +29,14 @@
 
 use super::actuators::{kind_of, ActuatorKind, ActuatorSpecs};
 use super::error::MachineError;
+use super::joint_drives::{JointDrives, JointMotor};
 use super::machine::{default_joint_signals, Machine};
 use super::parts::{joint, process_params};
 use crate::mechanism::{Joint, JointMotion, Mechanism, Pose2};
 use crate::physics::{Load, MechanismState, NO_DAMPING, NO_STIFFNESS};
 use crate::scene::{colors, Bounds, Drawing, Marker, MarkerSource, Scene};
 use framework::{SignalSpec, Unit};
+use models::current_amplifier::{AmplifierParams, CurrentAmplifier};
 use models::feed_axis::micromilling::{MicroMillingCut, MicroMillingParams};
 use serde::Deserialize;
 
@@ -67,29 +71,12 @@ impl Default for ProcessParams {
     }
 }
 
-/// Current amplifier and linear motor: force command → voltage → current (limited) → force.
-#[derive(Debug, Clone)]
-struct Drive {
-    amplifier_gain: f64,
-    force_constant: f64,
-    current_limit: f64,
-    current: f64,
+/// How the amplifier has served the run.
+#[derive(Debug, Clone, Default)]
+struct AmplifierFigures {
     peak_current: f64,
     steps: usize,
     limited_steps: usize,
-}
-
-impl Drive {
-    /// The force the motor applies for `force_command` (N), updating the current.
-    fn force(&mut self, force_command: f64) -> f64 {
-        let voltage = force_command / (self.amplifier_gain * self.force_constant);
-        let current = self.amplifier_gain * voltage;
-        self.current = current.clamp(-self.current_limit, self.current_limit);
-        self.peak_current = self.peak_current.max(self.current.abs());
-        self.steps += 1;
-        self.limited_steps += usize::from(self.current != current);
-        self.force_constant * self.current
-    }
 }
 
 pub struct FeedAxis {
@@ -101,9 +88,10 @@ pub struct FeedAxis {
     axis: [f64; 2],
     /// Index of the table's actuator among the actuated joints.
     table_actuator: usize,
-    drive: Drive,
-    /// The scenario makes the drive ideal (`[actuators]`): the amplifier is left out.
-    ideal: bool,
+    /// The actuated joints' drives: the table's through its amplifier, unless the scenario makes
+    /// it ideal (`[actuators]`).
+    drives: JointDrives,
+    amplifier: AmplifierFigures,
     cut: Option<MicroMillingCut>,
     cutting_force: f64,
     /// Process-fault factor on the cutting forces (1: none).
@@ -122,15 +110,12 @@ impl FeedAxis {
             reason,
         };
         let params: ProcessParams = process_params(MACHINE, process)?;
-        for (name, value) in [
-            ("amplifier_gain", params.amplifier_gain),
-            ("force_constant", params.force_constant),
-            ("current_limit", params.current_limit),
-        ] {
-            if !(value > 0.0 && value.is_finite()) {
-                return Err(bad(format!("{name} must be finite and > 0, got {value}")));
-            }
-        }
+        let amplifier = CurrentAmplifier::new(AmplifierParams {
+            amplifier_gain: params.amplifier_gain,
+            force_constant: params.force_constant,
+            current_limit: params.current_limit,
+        })
+        .map_err(|e| bad(e.to_string()))?;
         // Checked whether or not it cuts: a bad [process.cut] is an error either way.
         let cut = MicroMillingCut::new(params.cut).map_err(|e| bad(format!("cut: {e}")))?;
 
@@ -143,15 +128,23 @@ impl FeedAxis {
                 name: TABLE_JOINT.into(),
             });
         };
-        let table_actuator = mechanism
-            .actuated_joints()
-            .iter()
+        let actuated = mechanism.actuated_joints();
+        let table_actuator = (actuated.iter())
             .position(|&j| j == table_joint)
             .ok_or_else(|| MachineError::MissingPart {
                 machine: MACHINE.into(),
                 what: "actuated joint (<limit effort> > 0)",
                 name: TABLE_JOINT.into(),
             })?;
+        let ideal = kind_of(actuators, TABLE_JOINT) == ActuatorKind::Effort;
+        let motors = (actuated.into_iter())
+            .map(|j| {
+                (
+                    j,
+                    (j == table_joint && !ideal).then_some(JointMotor::CurrentAmplifier(amplifier)),
+                )
+            })
+            .collect();
         Ok(Self {
             table_joint,
             table_link: table.child,
@@ -159,21 +152,21 @@ impl FeedAxis {
             guide_frame: table.origin,
             axis,
             table_actuator,
-            drive: Drive {
-                amplifier_gain: params.amplifier_gain,
-                force_constant: params.force_constant,
-                current_limit: params.current_limit,
-                current: 0.0,
-                peak_current: 0.0,
-                steps: 0,
-                limited_steps: 0,
-            },
-            ideal: kind_of(actuators, TABLE_JOINT) == ActuatorKind::Effort,
+            drives: JointDrives::with_motors(mechanism, motors),
+            amplifier: AmplifierFigures::default(),
             cut: params.cutting.then_some(cut),
             cutting_force: 0.0,
             process_factor: 1.0,
             cutting_force_peak: 0.0,
         })
+    }
+}
+
+impl FeedAxis {
+    /// The table amplifier's current, A, and whether it was at its limit (0 and no when the
+    /// drive is ideal).
+    fn table_current(&self) -> (f64, bool) {
+        (self.drives.currents().nth(self.table_actuator)).unwrap_or((0.0, false))
     }
 }
 
@@ -238,7 +231,7 @@ impl Machine for FeedAxis {
         diagnostics: &mut [f64],
     ) {
         let velocity = state.joint_velocities[self.table_joint];
-        signals[0] = self.drive.current;
+        signals[0] = self.table_current().0;
         self.cutting_force = self.process_factor
             * self
                 .cut
@@ -248,11 +241,13 @@ impl Machine for FeedAxis {
         diagnostics[0] = self.cutting_force;
     }
 
-    fn drive(&mut self, _dt: f64, commanded: &[f64], applied: &mut [f64]) {
-        applied.copy_from_slice(commanded);
-        if !self.ideal {
-            applied[self.table_actuator] = self.drive.force(commanded[self.table_actuator]);
-        }
+    fn drive(&mut self, dt: f64, commanded: &[f64], applied: &mut [f64]) {
+        self.drives.drive(dt, commanded, applied);
+        let (current, limited) = self.table_current();
+        let figures = &mut self.amplifier;
+        figures.peak_current = figures.peak_current.max(current.abs());
+        figures.steps += 1;
+        figures.limited_steps += usize::from(limited);
     }
 
     fn set_process_factor(&mut self, factor: f64) -> bool {
@@ -278,10 +273,11 @@ impl Machine for FeedAxis {
     }
 
     fn metrics(&self) -> Vec<(String, f64)> {
-        let mut metrics = vec![("peak_current".to_string(), self.drive.peak_current)];
+        let figures = &self.amplifier;
+        let mut metrics = vec![("peak_current".to_string(), figures.peak_current)];
         metrics.push((
             "current_limited_fraction".into(),
-            self.drive.limited_steps as f64 / self.drive.steps.max(1) as f64,
+            figures.limited_steps as f64 / figures.steps.max(1) as f64,
         ));
         if self.cut.is_some() {
             metrics.push(("cutting_force_peak".into(), self.cutting_force_peak));

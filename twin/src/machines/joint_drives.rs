@@ -1,14 +1,56 @@
 //! Actuators, one per driven joint: the command passes through the joint's transmission (its
-//! `<mechanicalReduction>`), ideal, or through a DC servo drive, whose command is a current. The
-//! generic machine's servos come from the scenario's data sheet (`[actuators.<joint>] kind =
-//! "dc-servo"`); the arm's are its own (`[process.drives]`), written once here for both.
+//! `<mechanicalReduction>`), ideal, or through a motor: a DC servo drive (its command a current),
+//! a DC gear motor, or a static current amplifier (their command an effort). The generic
+//! machine's motors come from the scenario's data sheets (`[actuators.<joint>] kind =
+//! "dc-servo"`, `"gear-motor"`, `"current-amplifier"`); the arm's servos and the feed axis's
+//! amplifier are their own (`[process]`), written once here for all.
 
-use super::actuators::{key_of, spec_of, ActuatorKind, ActuatorSpecs};
+use super::actuators::{key_of, spec_of, ActuatorKind, ActuatorSpec, ActuatorSpecs};
 use super::error::MachineError;
 use crate::mechanism::Mechanism;
 use crate::physics::MechanismState;
 use framework::{Actuator, SignalSpec, Unit};
+use models::current_amplifier::CurrentAmplifier;
 use models::drive::Drive;
+use models::gear_motor::GearMotor;
+
+/// The motor between a joint's command and its effort.
+pub(super) enum JointMotor {
+    /// A DC servo drive: the command is a current, A.
+    DcServo(Drive),
+    /// A DC gear motor: the command is the joint's torque.
+    GearMotor(GearMotor),
+    /// A static current amplifier and motor: the command is the joint's effort.
+    CurrentAmplifier(CurrentAmplifier),
+}
+
+impl JointMotor {
+    /// The joint's effort over a step of `dt` from `command`, the joint moving at `speed`.
+    fn step(&mut self, dt: f64, command: f64, speed: f64) -> f64 {
+        match self {
+            JointMotor::DcServo(servo) => servo.step(dt, command, speed),
+            JointMotor::GearMotor(motor) => motor.step(dt, command, speed),
+            JointMotor::CurrentAmplifier(amplifier) => amplifier.effort(command),
+        }
+    }
+
+    /// The winding's (or amplifier's) current, A, and whether it was held at its limit.
+    fn current(&self) -> (f64, bool) {
+        match self {
+            JointMotor::DcServo(servo) => (servo.current(), servo.at_limit()),
+            JointMotor::GearMotor(motor) => (motor.current(), motor.at_limit()),
+            JointMotor::CurrentAmplifier(amplifier) => (amplifier.current(), amplifier.at_limit()),
+        }
+    }
+
+    /// The current limit of a motor whose command is a current.
+    fn command_current_limit(&self) -> Option<f64> {
+        match self {
+            JointMotor::DcServo(servo) => Some(servo.params().current_limit),
+            JointMotor::GearMotor(_) | JointMotor::CurrentAmplifier(_) => None,
+        }
+    }
+}
 
 /// One driven joint's actuator.
 struct JointDrive {
@@ -17,9 +59,9 @@ struct JointDrive {
     joint: usize,
     /// The transmission's reduction: the joint's effort is this times an ideal command.
     reduction: f64,
-    /// The DC servo, when the scenario gives one.
-    servo: Option<Drive>,
-    /// The joint's speed at the last measurement, rad/s (m/s): the servo's back-EMF.
+    /// The motor, when the joint has one.
+    motor: Option<JointMotor>,
+    /// The joint's speed at the last measurement, rad/s (m/s): the motor's back-EMF.
     speed: f64,
 }
 
@@ -27,54 +69,42 @@ struct JointDrive {
 pub(super) struct JointDrives(Vec<JointDrive>);
 
 impl JointDrives {
-    /// Each driven joint's actuator, its DC servo checked.
+    /// Each driven joint's actuator, its motor's data sheet checked.
     pub(super) fn new(mechanism: &Mechanism, specs: &ActuatorSpecs) -> Result<Self, MachineError> {
-        let mut drives = Vec::new();
+        let mut motors = Vec::new();
         for j in mechanism.actuated_joints() {
             let joint = &mechanism.joints[j];
-            let spec = spec_of(specs, &joint.name);
-            let servo = match spec.filter(|s| s.kind == ActuatorKind::DcServo) {
-                Some(spec) => Some(servo(
-                    spec.drive,
-                    joint.reduction,
-                    &key_of(specs, &joint.name),
-                )?),
+            let motor = match spec_of(specs, &joint.name) {
+                Some(spec) => motor(spec, joint.reduction, &key_of(specs, &joint.name))?,
                 None => None,
             };
-            drives.push(JointDrive {
-                name: joint.name.clone(),
-                joint: j,
-                reduction: joint.reduction,
-                servo,
-                speed: 0.0,
-            });
+            motors.push((j, motor));
         }
-        Ok(Self(drives))
+        Ok(Self::with_motors(mechanism, motors))
     }
 
-    /// The actuators of `joints` (in actuator order) with the DC servos a machine brings,
-    /// `None` where a joint's drive is ideal; each takes its joint's transmission reduction.
-    pub(super) fn with_servos(mechanism: &Mechanism, servos: Vec<(usize, Option<Drive>)>) -> Self {
-        let drives = (servos.into_iter())
-            .map(|(j, servo)| JointDrive {
+    /// The actuators of `joints` (in actuator order) with the motors a machine brings, `None`
+    /// where a joint's drive is ideal; each takes its joint's transmission reduction.
+    pub(super) fn with_motors(
+        mechanism: &Mechanism,
+        motors: Vec<(usize, Option<JointMotor>)>,
+    ) -> Self {
+        let drives = (motors.into_iter())
+            .map(|(j, motor)| JointDrive {
                 name: mechanism.joints[j].name.clone(),
                 joint: j,
                 reduction: mechanism.joints[j].reduction,
-                servo,
+                motor,
                 speed: 0.0,
             })
             .collect();
         Self(drives)
     }
 
-    /// Each actuator's winding current, A (0 for an ideal one), and whether its current loop
-    /// is at its limit, in actuator order.
+    /// Each actuator's motor current, A (0 for an ideal one), and whether it is held at its
+    /// limit, in actuator order.
     pub(super) fn currents(&self) -> impl Iterator<Item = (f64, bool)> + '_ {
-        (self.0.iter()).map(|d| {
-            d.servo
-                .as_ref()
-                .map_or((0.0, false), |s| (s.current(), s.at_limit()))
-        })
+        (self.0.iter()).map(|d| d.motor.as_ref().map_or((0.0, false), JointMotor::current))
     }
 
     /// Keeps each joint's speed for the drives' back-EMF.
@@ -96,9 +126,9 @@ impl JointDrives {
         self.0.iter().find(|d| d.name == actuator.joint)
     }
 
-    /// A servo's winding current, one signal each, `<joint>.current` (A).
+    /// A motor's current, one signal each, `<joint>.current` (A).
     pub(super) fn signals(&self) -> Vec<SignalSpec> {
-        (self.0.iter().filter(|d| d.servo.is_some()))
+        (self.0.iter().filter(|d| d.motor.is_some()))
             .map(|d| {
                 SignalSpec::new(
                     format!("{}.current", d.name),
@@ -112,23 +142,25 @@ impl JointDrives {
     /// Fills [`JointDrives::signals`] and keeps each joint's speed for the drives' back-EMF.
     pub(super) fn measure(&mut self, state: &MechanismState, signals: &mut [f64]) {
         self.observe_speeds(state);
-        let servos = self.0.iter().filter_map(|d| d.servo.as_ref());
-        for (signal, servo) in signals.iter_mut().zip(servos) {
-            *signal = servo.current();
+        let motors = self.0.iter().filter_map(|d| d.motor.as_ref());
+        for (signal, motor) in signals.iter_mut().zip(motors) {
+            *signal = motor.current().0;
         }
     }
 
-    /// A servo's command is a current (A); an ideal actuator's the effort it is given.
+    /// A DC servo's command is a current (A); any other actuator's the effort it is given.
     pub(super) fn command_unit(&self, actuator: &Actuator) -> Option<Unit> {
-        (self.of(actuator)?.servo.as_ref()).map(|_| Unit::Ampere)
+        let motor = self.of(actuator)?.motor.as_ref()?;
+        motor.command_current_limit().map(|_| Unit::Ampere)
     }
 
-    /// A servo's current limit; an ideal actuator's effort limit less its reduction.
+    /// A DC servo's current limit; a motor's the effort limit; an ideal actuator's effort limit
+    /// less its reduction.
     pub(super) fn command_limit(&self, actuator: &Actuator) -> f64 {
         match self.of(actuator) {
             Some(JointDrive {
-                servo: Some(servo), ..
-            }) => servo.params().current_limit,
+                motor: Some(motor), ..
+            }) => (motor.command_current_limit()).unwrap_or(actuator.effort_limit),
             Some(drive) => actuator.effort_limit / drive.reduction.abs(),
             None => actuator.effort_limit,
         }
@@ -137,31 +169,49 @@ impl JointDrives {
     /// Each joint's effort over the coming step from its command.
     pub(super) fn drive(&mut self, dt: f64, commanded: &[f64], applied: &mut [f64]) {
         for (drive, (out, &command)) in self.0.iter_mut().zip(applied.iter_mut().zip(commanded)) {
-            *out = match &mut drive.servo {
-                Some(servo) => servo.step(dt, command, drive.speed),
+            *out = match &mut drive.motor {
+                Some(motor) => motor.step(dt, command, drive.speed),
                 None => drive.reduction * command,
             };
         }
     }
 }
 
-/// A DC servo from the entry `key`'s data sheet; its gear ratio stands for the transmission's.
-fn servo(
-    params: Option<models::drive::DriveParams>,
+/// The motor of the entry `key` (`spec`), from its data sheet; `None` for an ideal drive. A motor's
+/// gear ratio stands for the transmission's.
+fn motor(
+    spec: &ActuatorSpec,
     reduction: f64,
     key: &str,
-) -> Result<Drive, MachineError> {
+) -> Result<Option<JointMotor>, MachineError> {
     let bad = |reason: String| MachineError::Actuator {
         key: key.to_string(),
         reason,
     };
-    let params =
-        params.ok_or_else(|| bad("kind = \"dc-servo\" needs its [drive] data sheet".into()))?;
+    let missing = |sheet: &str| bad(format!("this kind needs its [{key}.{sheet}] data sheet"));
+    let motor = match spec.kind {
+        ActuatorKind::Drive | ActuatorKind::Effort => return Ok(None),
+        ActuatorKind::DcServo => {
+            let params = spec.drive.ok_or_else(|| missing("drive"))?;
+            JointMotor::DcServo(Drive::new(params).map_err(|e| bad(format!("drive: {e}")))?)
+        }
+        ActuatorKind::GearMotor => {
+            let params = spec.motor.ok_or_else(|| missing("motor"))?;
+            let motor = GearMotor::new(params).map_err(|e| bad(format!("motor.{e}")))?;
+            JointMotor::GearMotor(motor)
+        }
+        ActuatorKind::CurrentAmplifier => {
+            let params = spec.amplifier.ok_or_else(|| missing("amplifier"))?;
+            let amplifier =
+                (CurrentAmplifier::new(params)).map_err(|e| bad(format!("amplifier.{e}")))?;
+            JointMotor::CurrentAmplifier(amplifier)
+        }
+    };
     if reduction != 1.0 {
         return Err(bad(format!(
-            "the joint's <transmission> has a reduction of {reduction}: a dc-servo's gear_ratio is the \
-             transmission's (leave mechanicalReduction out, or at 1)"
+            "the joint's <transmission> has a reduction of {reduction}: the motor's own data give \
+             its effort per ampere (leave mechanicalReduction out, or at 1)"
         )));
     }
-    Drive::new(params).map_err(|e| bad(format!("drive: {e}")))
+    Ok(Some(motor))
 }

@@ -2,7 +2,8 @@
 //! planar base, two driven wheels and a swivel caster, each wheel a `<wheel>` of the URDF.
 //!
 //! Per physics step the machine
-//! - drives each driven wheel through its DC gear motor ([`motor`]),
+//! - drives each driven wheel through its DC gear motor ([`models::gear_motor`], with the
+//!   rotor and gearbox of [`motor`]),
 //! - integrates every wheel's spin (implicit in the tyre force, which is stiff at low speed),
 //! - applies the tyre forces of `models::platform::tyre` at the contacts as loads on the wheels'
 //!   links, with the static normal loads from the centre of mass and the contacts
@@ -29,9 +30,10 @@ use crate::physics::{Load, MechanismState, NO_DAMPING, NO_STIFFNESS};
 use crate::scene::{colors, Bounds, Drawing, Marker, MarkerSource, Scene};
 use framework::{Actuator, EffortKind};
 use framework::{SignalSpec, Unit};
+use models::gear_motor::GearMotor;
 use models::platform::path::{Path, PathSpec};
 use models::platform::tyre::{static_normal_loads, TyreParams};
-use motor::{Motor, MotorParams};
+use motor::MotorParams;
 use serde::Deserialize;
 
 /// The `[process]` table of a platform scenario.
@@ -81,7 +83,7 @@ struct WheelState {
     normal_load: f64,
     /// Index among the actuators, for a driven wheel.
     actuator: Option<usize>,
-    motor: Motor,
+    motor: GearMotor,
     drive_torque: f64,
     spin: f64,
     angle: f64,
@@ -145,7 +147,7 @@ impl Platform {
             Path::new(&params.path, start, start_pose.angle).map_err(|e| bad(e.to_string()))?;
 
         let loads = static_loads(mechanism, &poses, params.floor_gravity)?;
-        let (actuators, wheels) = wheel_states(mechanism, loads, &params);
+        let (actuators, wheels) = wheel_states(mechanism, loads, &params)?;
         Ok(Self {
             chassis,
             point_h: params.point_h,
@@ -232,7 +234,8 @@ fn wheel_states(
     mechanism: &Mechanism,
     loads: Vec<f64>,
     params: &ProcessParams,
-) -> (Vec<Actuator>, Vec<WheelState>) {
+) -> Result<(Vec<Actuator>, Vec<WheelState>), MachineError> {
+    let motor = GearMotor::new(params.motor.gear_motor()).map_err(|e| bad(format!("motor.{e}")))?;
     let mut actuators = Vec::new();
     let mut wheels = Vec::new();
     for (wheel, normal_load) in mechanism.wheels.iter().zip(loads) {
@@ -260,14 +263,14 @@ fn wheel_states(
             inertia: wheel.spin_inertia + reflected,
             normal_load,
             actuator,
-            motor: Motor::default(),
+            motor,
             drive_torque: 0.0,
             spin: 0.0,
             angle: 0.0,
             slip: [0.0; 2],
         });
     }
-    (actuators, wheels)
+    Ok((actuators, wheels))
 }
 
 /// The driven wheels are the platform's own actuators: their torque spins the wheel model (the
@@ -390,7 +393,7 @@ impl Machine for Platform {
         let mut k = 0;
         for wheel in self.driven() {
             signals[k] = wheel.angle;
-            signals[k + 1] = wheel.motor.current;
+            signals[k + 1] = wheel.motor.current();
             k += 2;
         }
         signals[k..].copy_from_slice(&[
@@ -432,7 +435,7 @@ impl Machine for Platform {
         f.position_h = h;
         for wheel in self.wheels.iter().filter(|w| w.actuator.is_some()) {
             f.slip_max = f.slip_max.max(wheel.slip[0].hypot(wheel.slip[1]));
-            f.current_max = f.current_max.max(wheel.motor.current.abs());
+            f.current_max = f.current_max.max(wheel.motor.current().abs());
         }
     }
 
@@ -440,7 +443,7 @@ impl Machine for Platform {
         self.dt = dt;
         for wheel in &mut self.wheels {
             if let Some(a) = wheel.actuator {
-                wheel.drive_torque = wheel.motor.step(&self.motor, dt, commanded[a], wheel.spin);
+                wheel.drive_torque = wheel.motor.step(dt, commanded[a], wheel.spin);
                 applied[a] = wheel.drive_torque;
             }
         }
