@@ -10,9 +10,17 @@
 //! (`design::lqr`) for Q = diag(position_weight…, velocity_weight…), R = diag(effort_weight…).
 //! The law, each period: `u = u_eq − K·(x − x_r(t))`, clipped to the actuators' limits; an angle's
 //! error is taken the short way round.
+//!
+//! A point of the scenario may be given a path instead (`[controller.params.points.<name>]`
+//! `x`, `y`, as joint-pid's and computed-torque's): the joints with no reference of their own
+//! take the positions and rates that put it on its path, by the twin's own kinematics
+//! ([`PointFollower`](super::point_reference)). The design's first point is where the path
+//! starts, solved from the run's `[initial]` coordinates (which say which way the mechanism
+//! bends); `<name>.reach` says how far off the point is.
 
 use super::joint_reference;
 use super::model::{coordinate_signals, linearise, position_error, response, CoordinateSignals};
+use super::point_reference::{moved_joints, NamedJoint, PointFollower, PointReference};
 use crate::check::{finite, non_negative, positive};
 use crate::design::lqr::lqr;
 use framework::{parse_params, Entry, Event, EventKind, ANY_MACHINE};
@@ -38,6 +46,21 @@ pub struct LqrParams {
     /// `effort_weight`.
     #[serde(default)]
     pub joints: BTreeMap<String, LqrJoint>,
+    /// `[controller.params.points.<name>]`: a point of the scenario's `[points]` on a path (`x`,
+    /// `y`); it moves every joint named here that has no `reference` of its own.
+    #[serde(default)]
+    pub points: BTreeMap<String, PointReference>,
+}
+
+/// The joints named, as the points' check reads them.
+fn named(params: &LqrParams) -> Vec<NamedJoint<'_>> {
+    (params.joints.iter())
+        .map(|(joint, j)| NamedJoint {
+            joint,
+            own_reference: j.reference.is_some(),
+            target: j.target,
+        })
+        .collect()
 }
 
 /// One joint's weights and reference (SI).
@@ -87,6 +110,7 @@ pub fn weights(params: &LqrParams) -> Result<Vec<LqrWeights>, ControllerError> {
             reference,
         });
     }
+    moved_joints(NAME, &params.points, &named(params))?;
     Ok(weights)
 }
 
@@ -147,6 +171,11 @@ pub struct Lqr {
     weights: Vec<LqrWeights>,
     /// Per coordinate: its signals and reference.
     coordinates: Vec<(CoordinateSignals, Reference)>,
+    /// The points' references, the joints they move, and per coordinate which moved joint it is.
+    points: Vec<(String, PointReference)>,
+    moved: Vec<String>,
+    moved_at: Vec<Option<usize>>,
+    follower: Option<PointFollower>,
     /// The coordinates' joints (fixed at reset).
     names: Vec<String>,
     gains: Option<LqrGains>,
@@ -158,9 +187,14 @@ pub struct Lqr {
 impl Lqr {
     /// Checks the parameters; the regulator is designed when bound to the plant.
     pub fn new(params: LqrParams) -> Result<Self, ControllerError> {
+        let moved = moved_joints(NAME, &params.points, &named(&params))?;
         Ok(Self {
             weights: weights(&params)?,
             coordinates: Vec::new(),
+            points: params.points.into_iter().collect(),
+            moved,
+            moved_at: Vec::new(),
+            follower: None,
             names: Vec::new(),
             gains: None,
             limits: Vec::new(),
@@ -214,6 +248,46 @@ impl Lqr {
     }
 }
 
+impl Lqr {
+    /// The design's point x_r(0) (positions, then rates): each coordinate's reference at 0, the
+    /// points' joints where the path starts, solved from the run's `[initial]` coordinates.
+    fn first_point(
+        &mut self,
+        plant: &PlantInterface,
+        dynamics: &dyn Dynamics,
+    ) -> Result<Vec<f64>, ControllerError> {
+        let mut first: Vec<[f64; 2]> = (self.coordinates.iter())
+            .map(|(_, reference)| {
+                let sample = reference.sample(0.0);
+                [sample.position, sample.rate]
+            })
+            .collect();
+        self.moved_at = (self.names.iter())
+            .map(|name| self.moved.iter().position(|m| m == name))
+            .collect();
+        self.follower = None;
+        if !self.points.is_empty() {
+            let refuse = |reason: String| ControllerError::parameter_table(NAME, "points", reason);
+            let mut follower = PointFollower::bind(NAME, &self.points, &self.moved, plant)?;
+            let start = dynamics.start().ok_or_else(|| {
+                refuse("the plant does not say where the run starts, which the path's first point is solved from".into())
+            })?;
+            let targets = follower.first(start).ok_or_else(|| {
+                let off = follower.reach.iter().fold(0.0_f64, |a, &b| a.max(b));
+                refuse(format!("the path's first point is out of reach from the run's [initial] coordinates ({off:.3e} m off): start the path where the mechanism reaches"))
+            })?;
+            for (slot, m) in first.iter_mut().zip(&self.moved_at) {
+                if let Some(m) = m {
+                    *slot = targets[*m];
+                }
+            }
+            self.follower = Some(follower);
+        }
+        let positions = first.iter().map(|f| f[0]);
+        Ok(positions.chain(first.iter().map(|f| f[1])).collect())
+    }
+}
+
 pub(crate) fn entry() -> Entry {
     Entry {
         name: NAME,
@@ -231,17 +305,7 @@ impl Controller for Lqr {
     fn reset(&mut self, plant: &PlantInterface) -> Result<(), ControllerError> {
         let dynamics = plant.dynamics(NAME)?;
         let (q, r) = self.bind(plant, dynamics.as_ref())?;
-        let first = |rate: bool| {
-            (self.coordinates.iter()).map(move |(_, reference)| {
-                let sample = reference.sample(0.0);
-                if rate {
-                    sample.rate
-                } else {
-                    sample.position
-                }
-            })
-        };
-        let x0: Vec<f64> = first(false).chain(first(true)).collect();
+        let x0 = self.first_point(plant, dynamics.as_ref())?;
         let gains = design(dynamics.as_ref(), &x0, &q, &r)?;
         self.events.clear();
         self.events.push(Event::info(
@@ -262,12 +326,19 @@ impl Controller for Lqr {
             return;
         };
         let k = self.coordinates.len();
+        let from_points = self.follower.as_mut().map(|f| f.targets(measurement));
         for (i, (signals, reference)) in self.coordinates.iter().enumerate() {
-            let r = reference.sample(measurement.time);
+            let [position, rate] = match (self.moved_at[i], &from_points) {
+                (Some(m), Some(targets)) => targets[m],
+                _ => {
+                    let r = reference.sample(measurement.time);
+                    [r.position, r.rate]
+                }
+            };
             let q = measurement.get(signals.position);
             // x − x_r: the measured less the reference.
-            self.error[i] = -position_error(r.position, q, signals.turns);
-            self.error[k + i] = measurement.get(signals.velocity) - r.rate;
+            self.error[i] = -position_error(position, q, signals.turns);
+            self.error[k + i] = measurement.get(signals.velocity) - rate;
         }
         let u = &gains.equilibrium - &gains.gain * &self.error;
         for ((effort, u), limit) in efforts.iter_mut().zip(u.iter()).zip(&self.limits) {
@@ -276,15 +347,23 @@ impl Controller for Lqr {
     }
 
     fn internals(&self) -> Vec<SignalSpec> {
-        (self.names.iter())
-            .map(|joint| SignalSpec::new(format!("{joint}.error"), Unit::Dimensionless, "errors"))
-            .collect()
+        let errors = (self.names.iter())
+            .map(|joint| SignalSpec::new(format!("{joint}.error"), Unit::Dimensionless, "errors"));
+        let reach = (self.points.iter())
+            .map(|(name, _)| SignalSpec::new(format!("{name}.reach"), Unit::Metre, "errors"));
+        errors.chain(reach).collect()
     }
 
     fn internal_values(&self, values: &mut [f64]) {
         // The position errors, reference − measured.
-        for (value, error) in values.iter_mut().zip(self.error.iter()) {
+        let k = self.names.len();
+        for (value, error) in values.iter_mut().zip(self.error.iter().take(k)) {
             *value = -error;
+        }
+        if let Some(follower) = &self.follower {
+            for (value, distance) in values.iter_mut().skip(k).zip(&follower.reach) {
+                *value = *distance;
+            }
         }
     }
 

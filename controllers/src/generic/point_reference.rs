@@ -178,6 +178,20 @@ impl PointFollower {
     /// measurement.
     pub(crate) fn targets(&mut self, measurement: &Measurement) -> Vec<[f64; 2]> {
         let measured: Vec<f64> = self.positions.iter().map(|&s| measurement.get(s)).collect();
+        self.targets_at(measurement.time, measured)
+    }
+
+    /// Per moved joint, its position and rate references at the path's start, solved from the
+    /// coordinates `start` (the run's `[initial]`, which says which way the mechanism bends);
+    /// `None` where the path's first point is out of reach from there.
+    pub(crate) fn first(&mut self, start: Vec<f64>) -> Option<Vec<[f64; 2]>> {
+        self.solution = None;
+        let targets = self.targets_at(0.0, start);
+        (self.reach.iter().all(|&r| r <= 1e-9)).then_some(targets)
+    }
+
+    /// [`PointFollower::targets`] at `time` with the coordinates `measured`.
+    fn targets_at(&mut self, time: f64, measured: Vec<f64>) -> Vec<[f64; 2]> {
         let mut q = self.solution.clone().unwrap_or_else(|| measured.clone());
         for (i, value) in measured.iter().enumerate() {
             if !self.moved.contains(&i) {
@@ -185,7 +199,7 @@ impl PointFollower {
             }
         }
         let samples: Vec<_> = (self.components.iter())
-            .map(|(_, _, r)| r.sample(measurement.time))
+            .map(|(_, _, r)| r.sample(time))
             .collect();
         let wanted = DVector::from_iterator(samples.len(), samples.iter().map(|s| s.position));
         let rates = DVector::from_iterator(samples.len(), samples.iter().map(|s| s.rate));

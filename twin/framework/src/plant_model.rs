@@ -52,6 +52,12 @@ pub trait Dynamics: Send + Sync {
         acceleration: &mut [f64],
     ) -> Result<(), String>;
 
+    /// The independent coordinates where the run starts (the scenario's `[initial]`, 0 where it
+    /// gives none), in [`Dynamics::coordinates`]' order; `None` where the plant does not say.
+    fn start(&self) -> Option<Vec<f64>> {
+        None
+    }
+
     /// The scenario's points (`[points.<name>]`) [`Dynamics::point`] places, by name.
     fn points(&self) -> Vec<String> {
         Vec::new()

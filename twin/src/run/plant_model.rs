@@ -102,6 +102,17 @@ impl Dynamics for MechanismDynamics {
         &self.made().0
     }
 
+    /// The `[initial]` positions of the independent coordinates.
+    fn start(&self) -> Option<Vec<f64>> {
+        let coordinates = self.made().0.iter();
+        let position = |name: &str| {
+            let j = self.mechanism.joint_index(name)?;
+            let initial = self.initial.iter().find(|(i, _, _)| *i == j);
+            Some(initial.map_or(0.0, |(_, position, _)| *position))
+        };
+        coordinates.map(|c| position(&c.joint)).collect()
+    }
+
     fn acceleration(
         &self,
         position: &[f64],
