@@ -399,6 +399,16 @@ fn the_feed_axis_open_loop_response_is_its_linear_model() {
     let difference = twin_cli::frf::linear_difference(&result).unwrap();
     println!("feed axis: largest |H − G|/|G| {difference:.3e}");
     assert!(difference < 0.03, "measured vs linear model: {difference}");
+    let quoted = format!("to {:.2} % over 1–200 Hz", 100.0 * difference);
+    let guide = std::fs::read_to_string(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../docs/src/control-design.md"
+    ))
+    .unwrap();
+    assert!(
+        guide.contains(&quoted),
+        "control-design.md should say `{quoted}`"
+    );
     // frf.rrd draws the linear model over the measurement, on the same axes.
     let dir = scratch("bode");
     let written = write(&result, &dir).unwrap();

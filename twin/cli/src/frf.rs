@@ -8,8 +8,11 @@
 //! Excitations, each held over a sample period: `impulse`, a one-sample pulse of the amplitude
 //! at the start of each segment, no window (the response dies within its segment); `chirp`, a
 //! linear sweep over the band once per segment, Hann window; `noise`, uniform white noise within
-//! ± the amplitude (seeded), Hann window, segments overlapping by half. Chirp and noise run one
-//! segment first to settle (not averaged).
+//! ± the amplitude (seeded), Hann window, segments overlapping by half. Each runs one segment
+//! first, unexcited, to settle (not averaged): a scenario that starts with a move (a controller
+//! taking its axes to their targets) is measured where it comes to rest. The response is taken
+//! about the operating point: each segment's output less its level before the tap (impulse) or
+//! its mean (chirp, noise), so an axis held away from zero leaks nothing into the lowest lines.
 
 use crate::flags::SetFlag;
 use crate::frequency_response::estimate::{h1_estimate, Complex, FrfLine, Segments, Window};
@@ -181,11 +184,12 @@ fn plan(args: &FrfArgs) -> Result<Plan, FrfError> {
             ),
         ));
     }
-    let (window, hop, settle) = match args.excitation {
-        Excitation::Impulse => (Window::Rectangular, args.segment, 0),
-        Excitation::Chirp => (Window::Hann, args.segment, args.segment),
-        Excitation::Noise => (Window::Hann, args.segment / 2, args.segment),
+    let (window, hop) = match args.excitation {
+        Excitation::Impulse => (Window::Rectangular, args.segment),
+        Excitation::Chirp => (Window::Hann, args.segment),
+        Excitation::Noise => (Window::Hann, args.segment / 2),
     };
+    let settle = args.segment;
     let segments = Segments {
         first: settle,
         segment: args.segment,
@@ -204,11 +208,13 @@ fn plan(args: &FrfArgs) -> Result<Plan, FrfError> {
 /// The excitation's samples, each held over a sample period.
 fn excitation(args: &FrfArgs, plan: &Plan, amplitude: f64) -> Vec<f64> {
     let n = plan.segments.segment;
+    let settle = plan.segments.first;
     let mut noise = twin::Noise::new(args.seed);
     (0..plan.samples)
         .map(|k| match args.excitation {
+            _ if k < settle => 0.0,
             Excitation::Impulse => {
-                if k % n == 0 {
+                if (k - settle) % n == 0 {
                     amplitude
                 } else {
                     0.0

@@ -883,3 +883,59 @@ fn a_force_table_in_time_presses_as_the_constant_force_it_holds() {
     );
     assert!(!dir.join("y.rrd").exists());
 }
+
+/// A tap test on a machine that starts with a move and is held away from zero: the gantry's x
+/// axis under joint-pid (its integrator off) taken to 0.1 m against the workpiece's spring. The
+/// response is measured where the axis comes to rest, about that operating point: its static
+/// compliance is 1/(kp + k_spring) = 1/60 000 m/N, its mode the 11 kg carriage and slide on
+/// that stiffness. (Taken about zero, the 0.1 m offset read as 5 m/N at 0 Hz and a 0.03 kg mode.)
+#[test]
+fn a_tap_test_on_the_gantry_held_off_zero_measures_its_closed_loop_stiffness() {
+    let dir = scratch("generic-machine", "gantry-tap");
+    let gantry = scenario_of("gantry");
+    let args = [
+        "frf",
+        &gantry,
+        "--input",
+        "x",
+        "--output",
+        "x.position",
+        "--averages",
+        "4",
+        "--segment",
+        "2048",
+        "--rate",
+        "1000",
+        "--set",
+        "sensors.\"x.position\".resolution=0",
+        "--set",
+        "controller.params.joints.x.ki=0",
+        "--out-dir",
+        "tap",
+    ];
+    let stdout = ok(&twin(&args, &dir));
+    let table = columns(&dir.join("tap/frf.csv"));
+    let (dc, coherence) = (table["magnitude"][0], table["coherence"][0]);
+    assert_eq!(table["frequency_hz"][0], 0.0);
+    assert!((dc * 60_000.0 - 1.0).abs() < 1e-6, "{dc} m/N at 0 Hz");
+    assert!(coherence > 0.999, "γ² {coherence} at 0 Hz");
+    let figure = |label: &str| -> f64 {
+        let after = stdout
+            .split(label)
+            .nth(1)
+            .unwrap_or_else(|| panic!("{stdout}"));
+        after
+            .split_whitespace()
+            .next()
+            .unwrap()
+            .trim_end_matches(',')
+            .parse()
+            .unwrap()
+    };
+    let (stiffness, mass) = (figure("stiffness "), figure("mass "));
+    assert!(
+        (stiffness / 60_000.0 - 1.0).abs() < 0.02,
+        "{stiffness} N/m: {stdout}"
+    );
+    assert!((mass / 11.0 - 1.0).abs() < 0.1, "{mass} kg: {stdout}");
+}

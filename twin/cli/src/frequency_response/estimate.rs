@@ -55,6 +55,17 @@ pub enum Window {
 }
 
 impl Window {
+    /// The levels a segment's input and output are taken about: for a transient, none and the
+    /// output's before the tap (its first sample; the input is zero between taps); for a
+    /// stationary excitation, their means.
+    fn operating_point(self, x: &[f64], y: &[f64]) -> (f64, f64) {
+        let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len().max(1) as f64;
+        match self {
+            Window::Rectangular => (0.0, y.first().copied().unwrap_or(0.0)),
+            Window::Hann => (mean(x), mean(y)),
+        }
+    }
+
     fn weight(self, k: usize, n: usize) -> f64 {
         match self {
             Window::Rectangular => 1.0,
@@ -84,7 +95,7 @@ pub struct FrfLine {
 }
 
 /// H1 and coherence at the bins of `[low, high]` Hz from input `x` and output `y` sampled every
-/// `period` s. The input is an effort held over each sample period (a zero-order hold): its
+/// `period` s, each segment's output taken about its operating point (the window's). The input is an effort held over each sample period (a zero-order hold): its
 /// spectrum is the samples' times `sinc(f·T)·e^(−iπfT)`, which is divided out so that H1 is the
 /// continuous plant's response, not the hold's. Bins where the input has no power are left out.
 pub fn h1_estimate(
@@ -102,10 +113,12 @@ pub fn h1_estimate(
     let (mut xr, mut xi, mut yr, mut yi) = (vec![0.0; n], vec![0.0; n], vec![0.0; n], vec![0.0; n]);
     for s in 0..segments.count {
         let start = segments.first + s * segments.hop;
+        let (x0, y0) =
+            (segments.window).operating_point(&x[start..start + n], &y[start..start + n]);
         for k in 0..n {
             let w = segments.window.weight(k, n);
-            (xr[k], xi[k]) = (w * x[start + k], 0.0);
-            (yr[k], yi[k]) = (w * y[start + k], 0.0);
+            (xr[k], xi[k]) = (w * (x[start + k] - x0), 0.0);
+            (yr[k], yi[k]) = (w * (y[start + k] - y0), 0.0);
         }
         fft(&mut xr, &mut xi);
         fft(&mut yr, &mut yi);
