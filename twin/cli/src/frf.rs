@@ -214,7 +214,7 @@ fn excitation(args: &FrfArgs, plan: &Plan, amplitude: f64) -> Vec<f64> {
         .map(|k| match args.excitation {
             _ if k < settle => 0.0,
             Excitation::Impulse => {
-                if (k - settle) % n == 0 {
+                if (k - settle).is_multiple_of(n) {
                     amplitude
                 } else {
                     0.0
