@@ -215,3 +215,51 @@ fn motor(
     }
     Ok(Some(motor))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A pendulum on `shoulder` whose transmission has the reduction `reduction`.
+    fn pendulum(reduction: f64) -> Mechanism {
+        let urdf = format!(
+            r#"<robot name="p">
+  <link name="base"/>
+  <link name="bar"><inertial><origin xyz="0 -0.2 0"/><mass value="1"/>
+    <inertia ixx="0.01" ixy="0" ixz="0" iyy="0.01" iyz="0" izz="0.01"/></inertial></link>
+  <joint name="shoulder" type="continuous"><parent link="base"/><child link="bar"/>
+    <axis xyz="0 0 1"/></joint>
+  <transmission name="t"><type>transmission_interface/SimpleTransmission</type>
+    <joint name="shoulder"><hardwareInterface>hardware_interface/EffortJointInterface</hardwareInterface></joint>
+    <actuator name="m"><mechanicalReduction>{reduction}</mechanicalReduction></actuator>
+  </transmission>
+</robot>"#
+        );
+        crate::urdf::load_str(&urdf, "p.urdf").expect("urdf")
+    }
+
+    /// A motor's data give its effort per ampere: a transmission's reduction besides is refused,
+    /// naming the entry; an ideal drive takes the reduction.
+    #[test]
+    fn a_motor_behind_a_reduction_is_refused_and_an_ideal_drive_takes_it() {
+        let amplifier = "[shoulder]\nkind = \"current-amplifier\"\n[shoulder.amplifier]\n\
+                         amplifier_gain = 2.0\nforce_constant = 5.0\ncurrent_limit = 10.0\n";
+        let specs: ActuatorSpecs = toml::from_str(amplifier).expect("toml");
+        let Err(error) = JointDrives::new(&pendulum(50.0), &specs) else {
+            panic!("a reduction of 50 behind a motor was taken");
+        };
+        let message = error.to_string();
+        assert!(
+            message.contains("actuators.shoulder") && message.contains("reduction of 50"),
+            "{message}"
+        );
+        let mut drives = JointDrives::new(&pendulum(1.0), &specs).expect("drives");
+        let mut applied = [0.0];
+        drives.drive(1e-3, &[60.0], &mut applied);
+        assert_eq!(applied, [50.0]);
+        assert_eq!(drives.currents().next(), Some((10.0, true)));
+        let mut ideal = JointDrives::new(&pendulum(50.0), &ActuatorSpecs::new()).expect("drives");
+        ideal.drive(1e-3, &[0.5], &mut applied);
+        assert_eq!(applied, [25.0]);
+    }
+}
