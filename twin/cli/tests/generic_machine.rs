@@ -345,20 +345,6 @@ fn what_the_generic_machine_cannot_take_is_refused_by_name() {
         assert!(stderr.contains(expected), "{set}: {stderr}");
         assert!(!dir.join("x.rrd").exists(), "{set}");
     }
-    // A built-in machine has task-space signals of its own.
-    let args = [
-        "run",
-        "whitworth-crank-pi",
-        "--duration",
-        "0.1",
-        "--set",
-        "points.pin.link=crank",
-        "--out",
-        "x.rrd",
-    ];
-    let output = twin(&args, &dir);
-    let stderr = String::from_utf8_lossy(&output.stderr);
-    assert!(stderr.contains("generic machine's"), "{stderr}");
 }
 
 // Measured (release): from the cranks at 0.3 rad (0.5 rad/s) and −0.2 rad, falling 2 s under
@@ -938,4 +924,62 @@ fn a_tap_test_on_the_gantry_held_off_zero_measures_its_closed_loop_stiffness() {
         "{stiffness} N/m: {stdout}"
     );
     assert!((mass / 11.0 - 1.0).abs() < 0.1, "{mass} kg: {stdout}");
+}
+
+/// A built-in machine takes `[points]` beside its own signals: a point that carries nothing
+/// changes nothing of the run (every other column bit for bit), and it moves with its link; a
+/// force on it is a load the machine's controller meets (the feed axis's integrator takes a
+/// 50 N push on its table).
+#[test]
+fn a_built_in_machine_takes_points_beside_its_own_signals() {
+    let dir = scratch("generic-machine", "built-in-points");
+    let run = |name: &str, sets: &[&str]| {
+        let mut args = vec!["run", name, "--csv", "run.csv", "--out", "run.rrd"];
+        for set in sets {
+            args.extend(["--set", set]);
+        }
+        ok(&twin(&args, &dir));
+        common::cells(&dir.join("run.csv"))
+    };
+    let bare = run("whitworth-crank-pi", &["duration=2.0"]);
+    let pin = [
+        "duration=2.0",
+        "points.pin.link=crank",
+        "points.pin.at=[0.1, 0.0]",
+    ];
+    let with_pin = run("whitworth-crank-pi", &pin);
+    for (name, column) in &bare {
+        assert_eq!(&with_pin[name], column, "{name}");
+    }
+    let number = |column: &str| -> Vec<f64> {
+        with_pin[column]
+            .iter()
+            .map(|c| c.parse().unwrap())
+            .collect()
+    };
+    let (x, y) = (number("true.pin.x"), number("true.pin.y"));
+    let radius: Vec<f64> = x.iter().zip(&y).map(|(x, y)| x.hypot(*y)).collect();
+    let spread = radius
+        .iter()
+        .fold(0.0_f64, |m, r| m.max((r - radius[0]).abs()));
+    assert!(
+        spread < 1e-9,
+        "the crank's point wanders {spread} m off its circle"
+    );
+    assert!(
+        with_pin.contains_key("ram_position"),
+        "the machine's own signals stay"
+    );
+    let effort = |cells: &HashMap<String, Vec<String>>| -> f64 {
+        let column = &cells["effort.table"];
+        let tail = &column[column.len() / 2..];
+        tail.iter().map(|c| c.parse::<f64>().unwrap()).sum::<f64>() / tail.len() as f64
+    };
+    let free = effort(&run("feed-axis-micromilling", &[]));
+    let push = ["points.probe.link=table", "points.probe.force=[50.0, 0.0]"];
+    let pushed = effort(&run("feed-axis-micromilling", &push));
+    assert!(
+        (pushed - free + 50.0).abs() < 0.5,
+        "{free} N, then {pushed} N"
+    );
 }

@@ -2,8 +2,10 @@
 
 use super::actuators::ActuatorSpecs;
 use super::error::MachineError;
-use super::generic::{PointSpecs, GENERIC};
+use super::generic::GENERIC;
 use super::machine::Machine;
+use super::points::{PointSpecs, Points};
+use super::with_points::WithPoints;
 use super::{actuators, arm, feed_axis, generic, lathe, milling, platform, whitworth};
 use crate::mechanism::Mechanism;
 
@@ -18,8 +20,9 @@ pub const MACHINES: &[&str] = &[
     "milling",
 ];
 
-/// Builds the machine `name` on `mechanism` with the scenario's `[process]` table and its
-/// `[actuators]` (the drives it makes ideal; an entry naming no actuator is refused). The
+/// Builds the machine `name` on `mechanism` with the scenario's `[process]` table, its
+/// `[actuators]` (the drives it makes ideal; an entry naming no actuator is refused) and its
+/// `[points]` (the generic machine's task space; beside a built-in machine's own signals). The
 /// whitworth, lathe and milling machines have no drives of their own: their actuators are ideal
 /// whatever the kind.
 pub fn build(
@@ -29,15 +32,6 @@ pub fn build(
     actuators: &ActuatorSpecs,
     points: &PointSpecs,
 ) -> Result<Box<dyn Machine>, MachineError> {
-    if let Some(point) = points.keys().next().filter(|_| name != GENERIC) {
-        return Err(MachineError::Point {
-            key: format!("points.{point}"),
-            reason: format!(
-                "the {name} machine has task-space signals of its own; `[points]` are the \
-                 generic machine's (leave `machine` out)"
-            ),
-        });
-    }
     if name == GENERIC && !process.is_empty() {
         return Err(MachineError::BadParameters {
             machine: GENERIC.into(),
@@ -61,5 +55,25 @@ pub fn build(
         }
     };
     actuators::check_entries(actuators, mechanism, &machine.extra_actuators())?;
-    Ok(machine)
+    if name == GENERIC || points.is_empty() {
+        return Ok(machine);
+    }
+    let points = Points::new(name, mechanism, points)?;
+    let own: Vec<String> = (machine.signals().into_iter())
+        .chain(machine.diagnostics())
+        .map(|s| s.name)
+        .collect();
+    if let Some(clash) = points.signals().into_iter().find(|s| own.contains(&s.name)) {
+        return Err(MachineError::Point {
+            key: format!(
+                "points.{}",
+                clash.name.split('.').next().unwrap_or_default()
+            ),
+            reason: format!(
+                "`{}` is a signal of the {name} machine already: name the point otherwise",
+                clash.name
+            ),
+        });
+    }
+    Ok(Box::new(WithPoints::new(machine, points)))
 }

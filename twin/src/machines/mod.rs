@@ -15,11 +15,14 @@ mod machine;
 mod milling;
 mod parts;
 mod platform;
+mod points;
 mod whitworth;
+mod with_points;
 
 pub use actuators::{ActuatorKind, ActuatorSpec, ActuatorSpecs};
 pub use catalogue::build;
 pub use error::MachineError;
 pub use force_table::ForceTable;
-pub use generic::{PointAt, PointSpec, PointSpecs, SpringSpec, GENERIC};
+pub use generic::GENERIC;
 pub use machine::{effort_unit, Excitation, Machine, Stability};
+pub use points::{PointAt, PointSpec, PointSpecs, SpringSpec};
