@@ -7,8 +7,8 @@
 //! The amplifier is static: its own current loop is taken as far faster than the loops it
 //! serves.
 
+use crate::data_sheet::{all_positive, NotPositive};
 use serde::Deserialize;
-use thiserror::Error;
 
 /// The amplifier's and motor's data (SI units).
 #[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
@@ -22,29 +22,14 @@ pub struct AmplifierParams {
     pub current_limit: f64,
 }
 
-/// Why an amplifier's data are refused.
-#[derive(Debug, Error, Clone, PartialEq)]
-#[error("{name} must be finite and > 0, got {value}")]
-pub struct NotPositive {
-    /// The field's name.
-    pub name: &'static str,
-    /// The refused value, in the field's SI unit.
-    pub value: f64,
-}
-
 impl AmplifierParams {
     /// Checks every field is finite and positive.
     pub fn validate(&self) -> Result<(), NotPositive> {
-        for (name, value) in [
+        all_positive(&[
             ("amplifier_gain", self.amplifier_gain),
             ("force_constant", self.force_constant),
             ("current_limit", self.current_limit),
-        ] {
-            if !(value > 0.0 && value.is_finite()) {
-                return Err(NotPositive { name, value });
-            }
-        }
-        Ok(())
+        ])
     }
 }
 

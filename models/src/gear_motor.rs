@@ -8,8 +8,8 @@
 //! at the step's end (the gearbox is taken as lossless, `k_e = k_t` in SI units). The rotor's
 //! inertia and the gearbox's friction are not part of the drive: they belong to what it turns.
 
+use crate::data_sheet::{all_positive, NotPositive};
 use serde::Deserialize;
-use thiserror::Error;
 
 /// The motor's, gearbox's and amplifier's data (SI units).
 #[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
@@ -29,32 +29,17 @@ pub struct GearMotorParams {
     pub current_limit: f64,
 }
 
-/// Why a gear motor's data are refused.
-#[derive(Debug, Error, Clone, PartialEq)]
-#[error("{name} must be > 0, got {value}")]
-pub struct NotPositive {
-    /// The field's name.
-    pub name: &'static str,
-    /// The refused value, in the field's SI unit.
-    pub value: f64,
-}
-
 impl GearMotorParams {
     /// Checks every field is finite and positive.
     pub fn validate(&self) -> Result<(), NotPositive> {
-        for (name, value) in [
+        all_positive(&[
             ("gear_ratio", self.gear_ratio),
             ("torque_constant", self.torque_constant),
             ("resistance", self.resistance),
             ("inductance", self.inductance),
             ("supply_voltage", self.supply_voltage),
             ("current_limit", self.current_limit),
-        ] {
-            if !(value.is_finite() && value > 0.0) {
-                return Err(NotPositive { name, value });
-            }
-        }
-        Ok(())
+        ])
     }
 }
 
@@ -154,6 +139,9 @@ mod tests {
             ..params()
         };
         let error = GearMotor::new(bad).unwrap_err();
-        assert_eq!(error.to_string(), "inductance must be > 0, got 0");
+        assert_eq!(
+            error.to_string(),
+            "inductance must be finite and > 0, got 0"
+        );
     }
 }

@@ -3,7 +3,7 @@
 //!
 //! One module per machine, named as the machine is everywhere in the twin ([`whitworth`], [`arm`],
 //! [`platform`], [`feed_axis`], [`lathe`], [`milling`]), then the models they share: drives
-//! ([`drive`], [`gear_motor`], [`current_amplifier`]), first-order filters ([`filters`]), references ([`reference`](mod@reference), [`velocity_profile`]) and the
+//! ([`drive`], [`gear_motor`], [`current_amplifier`], their [`data_sheet`]s), first-order filters ([`filters`]), references ([`reference`](mod@reference), [`velocity_profile`]) and the
 //! independent serial-chain dynamics the engine is checked against ([`serial_chain`]).
 
 #![warn(missing_docs)]
@@ -17,6 +17,7 @@ pub mod platform;
 pub mod whitworth;
 
 pub mod current_amplifier;
+pub mod data_sheet;
 pub mod drive;
 pub mod gear_motor;
 pub mod reference;

@@ -16,7 +16,7 @@
 
 use super::joint_reference;
 use super::model::{coordinate_signals, position_error, response, CoordinateSignals};
-use super::point_reference::{moved_joints, NamedJoint, PointFollower, PointReference};
+use super::point_reference::{moved_joints, named, PointFollower, PointReference};
 use crate::check::{finite, non_negative};
 use framework::{parse_params, Entry, Event, EventKind, ANY_MACHINE};
 use framework::{Controller, ControllerError, Dynamics, Measurement, PlantInterface};
@@ -56,17 +56,6 @@ pub struct JointTracking {
     pub target: f64,
 }
 
-/// The joints named, as the points' check reads them.
-fn named(params: &ComputedTorqueParams) -> Vec<NamedJoint<'_>> {
-    (params.joints.iter())
-        .map(|(joint, j)| NamedJoint {
-            joint,
-            own_reference: j.reference.is_some(),
-            target: j.target,
-        })
-        .collect()
-}
-
 /// A joint's checked gains and reference.
 #[derive(Debug, Clone, PartialEq)]
 pub struct TrackingGains {
@@ -95,7 +84,7 @@ pub fn design(params: &ComputedTorqueParams) -> Result<Vec<TrackingGains>, Contr
             reference,
         });
     }
-    moved_joints(NAME, &params.points, &named(params))?;
+    moved_by_points(params)?;
     Ok(gains)
 }
 
@@ -128,7 +117,7 @@ pub struct ComputedTorque {
 impl ComputedTorque {
     /// Checks the parameters; the joints are bound to the mechanism's coordinates at `reset`.
     pub fn new(params: ComputedTorqueParams) -> Result<Self, ControllerError> {
-        let moved = moved_joints(NAME, &params.points, &named(&params))?;
+        let moved = moved_by_points(&params)?;
         Ok(Self {
             gains: design(&params)?,
             points: params.points.into_iter().collect(),
@@ -235,6 +224,12 @@ impl ComputedTorque {
             .solve(&(wanted - answer.free))
             .ok_or_else(|| "the mass matrix is singular at this state".to_string())
     }
+}
+
+/// The joints the points move (those named with no reference of their own), checked.
+fn moved_by_points(params: &ComputedTorqueParams) -> Result<Vec<String>, ControllerError> {
+    let joints = named(&params.joints, |j| (j.reference.is_some(), j.target));
+    moved_joints(NAME, &params.points, &joints)
 }
 
 pub(crate) fn entry() -> Entry {

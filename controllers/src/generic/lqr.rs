@@ -20,7 +20,7 @@
 
 use super::joint_reference;
 use super::model::{coordinate_signals, linearise, position_error, response, CoordinateSignals};
-use super::point_reference::{moved_joints, NamedJoint, PointFollower, PointReference};
+use super::point_reference::{moved_joints, named, PointFollower, PointReference};
 use crate::check::{finite, non_negative, positive};
 use crate::design::lqr::lqr;
 use framework::{parse_params, Entry, Event, EventKind, ANY_MACHINE};
@@ -50,17 +50,6 @@ pub struct LqrParams {
     /// `y`); it moves every joint named here that has no `reference` of its own.
     #[serde(default)]
     pub points: BTreeMap<String, PointReference>,
-}
-
-/// The joints named, as the points' check reads them.
-fn named(params: &LqrParams) -> Vec<NamedJoint<'_>> {
-    (params.joints.iter())
-        .map(|(joint, j)| NamedJoint {
-            joint,
-            own_reference: j.reference.is_some(),
-            target: j.target,
-        })
-        .collect()
 }
 
 /// One joint's weights and reference (SI).
@@ -110,7 +99,7 @@ pub fn weights(params: &LqrParams) -> Result<Vec<LqrWeights>, ControllerError> {
             reference,
         });
     }
-    moved_joints(NAME, &params.points, &named(params))?;
+    moved_by_points(params)?;
     Ok(weights)
 }
 
@@ -187,7 +176,7 @@ pub struct Lqr {
 impl Lqr {
     /// Checks the parameters; the regulator is designed when bound to the plant.
     pub fn new(params: LqrParams) -> Result<Self, ControllerError> {
-        let moved = moved_joints(NAME, &params.points, &named(&params))?;
+        let moved = moved_by_points(&params)?;
         Ok(Self {
             weights: weights(&params)?,
             coordinates: Vec::new(),
@@ -286,6 +275,12 @@ impl Lqr {
         let positions = first.iter().map(|f| f[0]);
         Ok(positions.chain(first.iter().map(|f| f[1])).collect())
     }
+}
+
+/// The joints the points move (those named with no reference of their own), checked.
+fn moved_by_points(params: &LqrParams) -> Result<Vec<String>, ControllerError> {
+    let joints = named(&params.joints, |j| (j.reference.is_some(), j.target));
+    moved_joints(NAME, &params.points, &joints)
 }
 
 pub(crate) fn entry() -> Entry {

@@ -51,6 +51,24 @@ pub(crate) struct NamedJoint<'a> {
     pub target: f64,
 }
 
+/// The joints of a law's `[controller.params.joints]`, as [`moved_joints`] reads them: `read`
+/// gives each entry's (has a reference of its own, target).
+pub(crate) fn named<J>(
+    joints: &BTreeMap<String, J>,
+    read: impl Fn(&J) -> (bool, f64),
+) -> Vec<NamedJoint<'_>> {
+    (joints.iter())
+        .map(|(joint, j)| {
+            let (own_reference, target) = read(j);
+            NamedJoint {
+                joint,
+                own_reference,
+                target,
+            }
+        })
+        .collect()
+}
+
 /// Checks `points` against the joints a law names, and returns the joints they move: those with
 /// no reference of their own. Each point names a component; the points ask no more components
 /// than joints they move, and those joints take no target.

@@ -662,6 +662,31 @@ fn motor_pendulum(dir: &Path, kind: &str, key: &str, sheet: &str) -> PathBuf {
     path
 }
 
+/// Runs the double pendulum `scenario` in `dir` driven through `kind`, checks it reaches its
+/// targets within four encoder counts and its currents stay within 10 A; its run CSV's columns.
+fn drives_to_targets(dir: &Path, scenario: &Path, kind: &str) -> HashMap<String, Vec<f64>> {
+    let run = [
+        "run",
+        scenario.to_str().unwrap(),
+        "--csv",
+        "run.csv",
+        "--out",
+        "run.rrd",
+    ];
+    ok(&twin(&run, dir));
+    let table = columns(&dir.join("run.csv"));
+    let count = std::f64::consts::TAU / 4096.0;
+    for (joint, target) in [("shoulder", 0.6), ("elbow", -0.4)] {
+        let positions = &table[&format!("true.{joint}.position")];
+        for &q in &positions[positions.len() - 1000..] {
+            assert!((q - target).abs() <= 4.0 * count, "{kind}: {joint} at {q}");
+        }
+    }
+    let current = &table["shoulder.current"];
+    assert!(current.iter().all(|i| i.abs() <= 10.0 + 1e-9), "{kind}");
+    table
+}
+
 /// The platform's gear motor and the feed axis's amplifier drive a generic machine's joints:
 /// the command a torque, the current a signal, the targets reached, bad data refused by entry.
 #[test]
@@ -682,22 +707,11 @@ fn gear_motors_and_current_amplifiers_drive_the_double_pendulum_to_its_targets()
             "actuators.\"*\".amplifier.force_constant=-5",
         ),
     ];
-    let count = std::f64::consts::TAU / 4096.0;
     for (kind, key, sheet, bad) in motors {
         let scenario = motor_pendulum(&dir, kind, key, sheet);
-        let run = [
-            "run",
-            scenario.to_str().unwrap(),
-            "--csv",
-            "run.csv",
-            "--out",
-            "run.rrd",
-        ];
-        ok(&twin(&run, &dir));
-        let table = columns(&dir.join("run.csv"));
+        let table = drives_to_targets(&dir, &scenario, kind);
         let (current, command) = (&table["shoulder.current"], &table["effort.shoulder"]);
         let n = current.len();
-        assert!(current.iter().all(|i| i.abs() <= 10.0 + 1e-9), "{kind}");
         // Held, the current carries the bars' weight: the commanded torque at 5 N·m per ampere.
         let held = command[n - 1] / 5.0;
         assert!(
@@ -705,12 +719,6 @@ fn gear_motors_and_current_amplifiers_drive_the_double_pendulum_to_its_targets()
             "{kind}: {} A",
             current[n - 1]
         );
-        for (joint, target) in [("shoulder", 0.6), ("elbow", -0.4)] {
-            let positions = &table[&format!("true.{joint}.position")];
-            for &q in &positions[positions.len() - 1000..] {
-                assert!((q - target).abs() <= 4.0 * count, "{kind}: {joint} at {q}");
-            }
-        }
         let entry = "actuators.\"*\"";
         assert!(refused(&dir, &scenario, bad).contains(entry), "{bad}");
         let effort = refused(&dir, &scenario, "actuators.\"*\".kind=effort");
@@ -759,31 +767,14 @@ fn refused(dir: &Path, scenario: &Path, set: &str) -> String {
 fn dc_servos_drive_the_double_pendulum_to_its_targets() {
     let dir = scratch("generic-machine", "dc-servo");
     let scenario = servo_pendulum(&dir);
-    let run = [
-        "run",
-        scenario.to_str().unwrap(),
-        "--csv",
-        "run.csv",
-        "--out",
-        "run.rrd",
-    ];
-    ok(&twin(&run, &dir));
-    let table = columns(&dir.join("run.csv"));
+    let table = drives_to_targets(&dir, &scenario, "dc-servo");
     // Commands are currents, and each servo's current is a signal of its own.
     let current = &table["shoulder.current"];
     let command = &table["effort.shoulder"];
     let n = current.len();
-    assert!(current.iter().all(|i| i.abs() <= 10.0 + 1e-9));
     // Held, the shoulder's current carries the bars' weight: the same torque as the ideal
     // drive's, 5 N·m per ampere.
     assert!((current[n - 1] - command[n - 1]).abs() < 0.05 * command[n - 1].abs().max(0.1));
-    let count = std::f64::consts::TAU / 4096.0;
-    for (joint, target) in [("shoulder", 0.6), ("elbow", -0.4)] {
-        let positions = &table[&format!("true.{joint}.position")];
-        for &q in &positions[positions.len() - 1000..] {
-            assert!((q - target).abs() <= 4.0 * count, "{joint} at {q}");
-        }
-    }
     // What the servo cannot take is refused by its entry.
     for (set, expected) in [
         ("actuators.\"*\".drive.resistance=0", "actuators.\"*\""),
