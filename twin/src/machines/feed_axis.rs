@@ -160,9 +160,7 @@ impl FeedAxis {
             cutting_force_peak: 0.0,
         })
     }
-}
 
-impl FeedAxis {
     /// The table amplifier's current, A, and whether it was at its limit (0 and no when the
     /// drive is ideal).
     fn table_current(&self) -> (f64, bool) {
