@@ -79,6 +79,7 @@ use super::error::MachineError;
 use super::joint_drives::{JointDrives, JointMotor};
 use super::machine::{effort_unit, Machine};
 use super::parts::{joint, link, process_params};
+use super::points::LinkPoint;
 use crate::mechanism::Mechanism;
 use crate::physics::{Load, MechanismState, NO_DAMPING, NO_STIFFNESS};
 use crate::scene::{colors, Bounds, Drawing, Marker, MarkerSource, Scene};
@@ -176,7 +177,8 @@ pub struct Arm {
     shoulder: [f64; 2],
     spindle_joint: usize,
     hand: usize,
-    cutter_link: usize,
+    /// The tool point, `tool_x`, `tool_y`: the cutter's origin.
+    tool: LinkPoint,
     /// The arm joints' actuators: a DC servo each, or ideal where the scenario makes it so.
     drives: JointDrives,
     drive_power: DrivePower,
@@ -259,7 +261,7 @@ impl Arm {
             shoulder: [shoulder.x, shoulder.y],
             spindle_joint,
             hand: link(MACHINE, mechanism, "hand")?,
-            cutter_link,
+            tool: LinkPoint::origin(cutter_link),
             drives,
             drive_power: params.drive_power,
             spindle_power: params.spindle_power,
@@ -454,9 +456,8 @@ impl Machine for Arm {
         self.time = time;
         self.drives.observe_speeds(state);
         self.spindle_speed = state.joint_velocities[self.spindle_joint];
-        let tool = state.link_poses[self.cutter_link];
-        let velocity = state.link_velocities[self.cutter_link];
-        let seen = self.contour.project([tool.x, tool.y]);
+        let (tool, velocity) = self.tool.locate(state);
+        let seen = self.contour.project(tool);
         let stock = self.stock.depth_at(seen.along);
         let radial_depth = if stock > 0.0 {
             (stock + seen.right_offset).max(0.0)
@@ -471,8 +472,8 @@ impl Machine for Arm {
             currents[1],
             currents[2],
             currents[3],
-            tool.x,
-            tool.y,
+            tool[0],
+            tool[1],
         ]);
         diagnostics.copy_from_slice(&[
             seen.distance,
@@ -510,20 +511,19 @@ impl Machine for Arm {
     }
 
     fn loads(&mut self, _time: f64, state: &MechanismState, loads: &mut Vec<Load>) {
-        let tool = state.link_poses[self.cutter_link];
-        let centre = [tool.x, tool.y];
-        couple(self.cutter_link, centre, self.spindle_torque, loads);
+        let centre = self.tool.position(state);
+        couple(self.tool.link, centre, self.spindle_torque, loads);
         couple(self.hand, centre, -self.spindle_torque, loads);
         if self.cut.torque != 0.0 || self.cut_force != [0.0; 2] {
             loads.push(Load {
-                link: self.cutter_link,
+                link: self.tool.link,
                 force: self.cut_force,
                 point: centre,
                 damping: self.cut_damping,
                 stiffness: NO_STIFFNESS,
             });
             let resisting = -self.spindle.set_speed().signum() * self.cut.torque;
-            couple(self.cutter_link, centre, resisting, loads);
+            couple(self.tool.link, centre, resisting, loads);
         }
     }
 

@@ -15,6 +15,7 @@
 use super::error::MachineError;
 use super::machine::{default_joint_signals, Excitation, Machine, Stability};
 use super::parts::{joint, process_params};
+use super::points::LinkPoint;
 use crate::mechanism::{Joint, JointMotion, Mechanism};
 use crate::physics::{Load, MechanismState, NO_DAMPING, NO_STIFFNESS};
 use crate::scene::{colors, Bounds, Drawing, Marker, MarkerSource, Scene};
@@ -50,7 +51,8 @@ struct ToolJoints {
     y: usize,
     axis_x: [f64; 2],
     axis_y: [f64; 2],
-    tip_link: usize,
+    /// The tool's tip, where the cut acts: the y slide's origin.
+    tip: LinkPoint,
 }
 
 pub struct Milling {
@@ -131,7 +133,7 @@ fn tool_joints(mechanism: &Mechanism, frame: usize) -> Result<ToolJoints, Machin
         y,
         axis_x,
         axis_y,
-        tip_link: jy.child,
+        tip: LinkPoint::origin(jy.child),
     })
 }
 
@@ -224,11 +226,10 @@ impl Machine for Milling {
         }
         let angle = state.joint_positions[self.spindle];
         let pitch = cut.params().pitch();
-        let tip = state.link_poses[self.tool.tip_link];
         loads.push(Load {
-            link: self.tool.tip_link,
+            link: self.tool.tip.link,
             force: self.forces.force,
-            point: [tip.x, tip.y],
+            point: self.tool.tip.position(state),
             damping: NO_DAMPING,
             stiffness: self.forces.stiffness,
         });

@@ -25,6 +25,7 @@ use super::actuators::{key_of, kind_of, ActuatorKind, ActuatorSpecs};
 use super::error::MachineError;
 use super::machine::Machine;
 use super::parts::{link, process_params};
+use super::points::LinkPoint;
 use crate::mechanism::{wrap_angle, Mechanism, Pose2};
 use crate::physics::{Load, MechanismState, NO_DAMPING, NO_STIFFNESS};
 use crate::scene::{colors, Bounds, Drawing, Marker, MarkerSource, Scene};
@@ -73,8 +74,8 @@ fn default_floor_gravity() -> f64 {
 /// One wheel in operation.
 struct WheelState {
     name: String,
-    link: usize,
-    origin: Pose2,
+    /// Where the tyre touches the floor: a point of the wheel's link.
+    contact: LinkPoint,
     heading: [f64; 2],
     radius: f64,
     friction: f64,
@@ -255,8 +256,10 @@ fn wheel_states(
         let [hx, hy] = wheel.heading();
         wheels.push(WheelState {
             name: wheel.name.clone(),
-            link: wheel.link,
-            origin: wheel.origin,
+            contact: LinkPoint {
+                link: wheel.link,
+                at: [wheel.origin.x, wheel.origin.y],
+            },
             heading: wheel.origin.rotate(hx, hy),
             radius: wheel.radius,
             friction: params.friction.unwrap_or(wheel.friction),
@@ -453,14 +456,8 @@ impl Machine for Platform {
         let dt = self.dt;
         let damping = self.motor.gear_damping;
         for wheel in &mut self.wheels {
-            let pose = state.link_poses[wheel.link];
-            let contact = pose.apply(wheel.origin.x, wheel.origin.y);
-            let omega = state.link_angular_velocities[wheel.link];
-            let [vx, vy] = state.link_velocities[wheel.link];
-            let velocity = [
-                vx - omega * (contact[1] - pose.y),
-                vy + omega * (contact[0] - pose.x),
-            ];
+            let pose = state.link_poses[wheel.contact.link];
+            let (contact, velocity) = wheel.contact.locate(state);
             let [fx, fy] = pose.rotate(wheel.heading[0], wheel.heading[1]);
             let along = [
                 velocity[0] * fx + velocity[1] * fy,
@@ -484,7 +481,7 @@ impl Machine for Platform {
             wheel.slip = after.slip;
             let [f_long, f_lat] = after.force;
             loads.push(Load {
-                link: wheel.link,
+                link: wheel.contact.link,
                 force: [f_long * fx - f_lat * fy, f_long * fy + f_lat * fx],
                 point: contact,
                 damping: NO_DAMPING,

@@ -3,7 +3,8 @@
 //! A point may carry a load: a constant force, a force in time from a table
 //! ([`super::force_table`]), or a spring-damper to a fixed anchor (a contact with a workpiece, a
 //! buffer). The generic machine's task space is its points; a built-in machine takes them beside
-//! its own signals ([`super::with_points`]).
+//! its own signals ([`super::with_points`]), and measures its own (the arm's tool, the shaper's
+//! ram, the spindle's tip, a wheel's contact) as the same [`LinkPoint`], under its own names.
 
 use super::error::MachineError;
 use super::force_table::ForceTable;
@@ -104,11 +105,52 @@ pub struct SpringSpec {
 /// The scenario's points, by name.
 pub type PointSpecs = BTreeMap<String, PointSpec>;
 
-/// A point, resolved on the mechanism.
+/// A point fixed on a link: where it is and how fast it moves, world frame.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct LinkPoint {
+    /// The link, by index.
+    pub link: usize,
+    /// Where on the link, in its frame on the plane, m.
+    pub at: [f64; 2],
+}
+
+impl LinkPoint {
+    /// The origin of `link`.
+    pub fn origin(link: usize) -> Self {
+        Self { link, at: [0.0; 2] }
+    }
+
+    /// Where the point is in `state`, world frame, m. A link's origin is its pose's, unrotated.
+    pub fn position(&self, state: &MechanismState) -> [f64; 2] {
+        let pose = state.link_poses[self.link];
+        match self.at == [0.0; 2] {
+            true => [pose.x, pose.y],
+            false => pose.apply(self.at[0], self.at[1]),
+        }
+    }
+
+    /// Where the point is and how fast it moves in `state`, world frame (m, m/s): the link's
+    /// velocity plus ω × r from the link's origin.
+    pub fn locate(&self, state: &MechanismState) -> ([f64; 2], [f64; 2]) {
+        let velocity = state.link_velocities[self.link];
+        if self.at == [0.0; 2] {
+            return (self.position(state), velocity);
+        }
+        let pose = state.link_poses[self.link];
+        let position = pose.apply(self.at[0], self.at[1]);
+        let omega = state.link_angular_velocities[self.link];
+        let (rx, ry) = (position[0] - pose.x, position[1] - pose.y);
+        (
+            position,
+            [velocity[0] - omega * ry, velocity[1] + omega * rx],
+        )
+    }
+}
+
+/// A point of the scenario's, resolved on the mechanism.
 struct Point {
     name: String,
-    link: usize,
-    at: [f64; 2],
+    on: LinkPoint,
     force: [f64; 2],
     table: Option<ForceTable>,
     spring: Option<SpringSpec>,
@@ -140,8 +182,10 @@ impl Points {
             }
             resolved.push(Point {
                 name: name.clone(),
-                link: link(machine, mechanism, &spec.link)?,
-                at,
+                on: LinkPoint {
+                    link: link(machine, mechanism, &spec.link)?,
+                    at,
+                },
                 force: spec.force.unwrap_or([0.0; 2]),
                 table: table_of(name, spec)?,
                 spring: spec.spring,
@@ -174,7 +218,7 @@ impl Points {
     /// Fills [`Points::signals`] for `state`.
     pub(super) fn measure(&self, state: &MechanismState, signals: &mut [f64]) {
         for (k, p) in self.0.iter().enumerate() {
-            let ([x, y], [vx, vy]) = locate(p, state);
+            let ([x, y], [vx, vy]) = p.on.locate(state);
             signals[4 * k..4 * k + 4].copy_from_slice(&[x, y, vx, vy]);
         }
     }
@@ -182,14 +226,14 @@ impl Points {
     /// Each point's load over the coming step, if it carries one.
     pub(super) fn loads(&self, time: f64, state: &MechanismState, loads: &mut Vec<Load>) {
         for p in &self.0 {
-            let (point, velocity) = locate(p, state);
+            let (point, velocity) = p.on.locate(state);
             let mut force = p.force;
             if let Some(table) = &p.table {
                 let [fx, fy] = table.at(time);
                 force = [force[0] + fx, force[1] + fy];
             }
             let mut load = Load {
-                link: p.link,
+                link: p.on.link,
                 force,
                 point,
                 damping: NO_DAMPING,
@@ -216,16 +260,6 @@ impl Points {
             })
             .collect()
     }
-}
-
-/// Where point `p` is and how fast it moves, world frame.
-fn locate(p: &Point, state: &MechanismState) -> ([f64; 2], [f64; 2]) {
-    let pose = state.link_poses[p.link];
-    let position = pose.apply(p.at[0], p.at[1]);
-    let [vx, vy] = state.link_velocities[p.link];
-    let omega = state.link_angular_velocities[p.link];
-    let (rx, ry) = (position[0] - pose.x, position[1] - pose.y);
-    (position, [vx - omega * ry, vy + omega * rx])
 }
 
 /// The point's force table, read with the scenario.
@@ -263,5 +297,47 @@ fn spring_force(spring: &SpringSpec, point: [f64; 2], velocity: [f64; 2], load: 
         load.force[axis] -= spring.stiffness * stretch + spring.damping * velocity[axis];
         load.stiffness[axis][axis] -= spring.stiffness;
         load.damping[axis][axis] -= spring.damping;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::LinkPoint;
+    use crate::mechanism::Pose2;
+    use crate::physics::MechanismState;
+
+    /// A link turned by 90° at (1, 2), moving at (0.5, −0.25) m/s and turning at 2 rad/s.
+    fn turning_link() -> MechanismState {
+        MechanismState {
+            link_poses: vec![Pose2 {
+                x: 1.0,
+                y: 2.0,
+                angle: std::f64::consts::FRAC_PI_2,
+            }],
+            link_velocities: vec![[0.5, -0.25]],
+            link_angular_velocities: vec![2.0],
+            ..MechanismState::default()
+        }
+    }
+
+    #[test]
+    fn a_link_origin_is_the_links_own_pose_and_velocity_bit_for_bit() {
+        let state = turning_link();
+        let origin = LinkPoint::origin(0);
+        assert_eq!(origin.position(&state), [1.0, 2.0]);
+        assert_eq!(origin.locate(&state), ([1.0, 2.0], [0.5, -0.25]));
+    }
+
+    #[test]
+    fn a_point_off_the_origin_turns_with_its_link() {
+        let state = turning_link();
+        let (position, velocity) = LinkPoint {
+            link: 0,
+            at: [0.1, 0.0],
+        }
+        .locate(&state);
+        // r = (0, 0.1) in the world; v = v₀ + ω × r = (0.5 − 2·0.1, −0.25).
+        assert!((position[0] - 1.0).abs() < 1e-15 && (position[1] - 2.1).abs() < 1e-15);
+        assert!((velocity[0] - 0.3).abs() < 1e-15 && (velocity[1] + 0.25).abs() < 1e-15);
     }
 }

@@ -7,6 +7,7 @@ mod cutting;
 use super::error::MachineError;
 use super::machine::Machine;
 use super::parts::{joint, link, process_params};
+use super::points::LinkPoint;
 use crate::mechanism::Mechanism;
 use crate::physics::{Load, MechanismState, NO_DAMPING, NO_STIFFNESS};
 use crate::scene::{colors, Bounds, Drawing, Marker, MarkerSource, Scene};
@@ -28,7 +29,8 @@ struct ProcessParams {
 pub struct Whitworth {
     geometry: Geometry,
     crank_joint: usize,
-    ram_link: usize,
+    /// The ram, `ram_position` and `ram_velocity` (its origin's y).
+    ram: LinkPoint,
     /// Crank angle at zero joint coordinate: the crank joint's origin angle on the ground.
     crank_zero: f64,
     ram_model_error_max: f64,
@@ -72,7 +74,7 @@ impl Whitworth {
         Ok(Self {
             geometry,
             crank_joint,
-            ram_link: link("whitworth", mechanism, "ram")?,
+            ram: LinkPoint::origin(link("whitworth", mechanism, "ram")?),
             crank_zero: mechanism.joints[crank_joint].origin.angle,
             ram_model_error_max: 0.0,
             ram_velocity_error_max: 0.0,
@@ -142,8 +144,7 @@ impl Machine for Whitworth {
         diagnostics: &mut [f64],
     ) {
         self.crank_angle = self.crank_zero + state.joint_positions[self.crank_joint];
-        let ram_position = state.link_poses[self.ram_link].y;
-        let ram_velocity = state.link_velocities[self.ram_link][1];
+        let ([_, ram_position], [_, ram_velocity]) = self.ram.locate(state);
         let crank_speed = state.joint_velocities[self.crank_joint];
         let model_error = ram_position - self.geometry.ram_position(self.crank_angle);
         // The closed-form J(q)·q̇ of the same end-of-step state.
@@ -180,11 +181,11 @@ impl Machine for Whitworth {
 
     fn loads(&mut self, _time: f64, state: &MechanismState, loads: &mut Vec<Load>) {
         if self.contact_force != 0.0 {
-            let ram = state.link_poses[self.ram_link];
+            let ram = self.ram.position(state);
             loads.push(Load {
-                link: self.ram_link,
+                link: self.ram.link,
                 force: [0.0, self.contact_force],
-                point: [ram.x, ram.y],
+                point: ram,
                 damping: NO_DAMPING,
                 stiffness: NO_STIFFNESS,
             });
