@@ -3,7 +3,7 @@
 use std::path::PathBuf;
 
 /// Why a Rerun file could not be recorded, written or read.
-#[derive(Debug, thiserror::Error)]
+#[derive(Debug, Clone, thiserror::Error)]
 pub enum RecordingError {
     /// The file cannot be started (its path is a directory, its folder is missing or not
     /// writable), or its layout or the live viewer cannot be set up.

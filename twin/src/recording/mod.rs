@@ -29,6 +29,7 @@
 //! (see [`Recorder`]), a live viewer streams on a path of its own that cannot fail the file, and
 //! [`salvage()`] completes what a killed run left.
 
+mod background;
 mod blueprint;
 mod columns;
 mod drawing;
@@ -48,6 +49,7 @@ mod study;
 mod style;
 mod writer;
 
+pub use background::BackgroundRecorder;
 pub use error::RecordingError;
 pub use inspect::{inspect, FigureLayer, RecordingContents};
 pub use layout::{

@@ -146,6 +146,11 @@ impl Recorder {
         })
     }
 
+    /// The recording's path, where [`Recorder::finish`] puts it.
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+
     /// Where the run is being written until [`Recorder::finish`] renames it onto its path: what a
     /// killed run leaves behind, for [`salvage`].
     #[cfg(test)]

@@ -895,3 +895,94 @@ fn a_bad_viewer_url_fails_at_create_and_leaves_no_file() {
     assert!(files_in(&dir).is_empty(), "{:?}", files_in(&dir));
     cleanup(&dir);
 }
+
+/// What the byte-for-byte test asks of either recorder.
+trait Recording {
+    fn sample(&mut self, step: i64, t: f64, values: &[f64]) -> Result<(), RecordingError>;
+    fn crash(
+        &mut self,
+        step: i64,
+        t: f64,
+        what: &[([f64; 2], String)],
+    ) -> Result<(), RecordingError>;
+    fn end(self) -> Result<RecordingOutcome, RecordingError>;
+}
+
+macro_rules! recording_for {
+    ($recorder:ty) => {
+        impl Recording for $recorder {
+            fn sample(&mut self, step: i64, t: f64, values: &[f64]) -> Result<(), RecordingError> {
+                self.push(step, t, &poses(2, t), values, &[])
+            }
+            fn crash(
+                &mut self,
+                step: i64,
+                t: f64,
+                what: &[([f64; 2], String)],
+            ) -> Result<(), RecordingError> {
+                self.event(step, t, EventLevel::Warning, "effort saturated")?;
+                self.collisions(step, t, what)
+            }
+            fn end(mut self) -> Result<RecordingOutcome, RecordingError> {
+                self.summary("# done")?;
+                self.finish()
+            }
+        }
+    };
+}
+recording_for!(Recorder);
+recording_for!(BackgroundRecorder);
+
+/// Samples over several batches and buffers, with events and crashes among them.
+fn write_run(mut rec: impl Recording) -> RecordingOutcome {
+    for step in 0..(FLUSH_EVERY as i64 + 3 * background::BATCH as i64 + 17) {
+        let t = step as f64 * 1e-3;
+        rec.sample(step, t, &[t.sin(), t.cos(), 2.0 * t])
+            .expect("push");
+        if step % 1000 == 7 {
+            let crash = [([0.1, t], "link 0/link 1".to_owned())];
+            rec.crash(step, t, &crash).expect("event");
+        }
+    }
+    rec.end().expect("finish")
+}
+
+#[test]
+fn the_background_recorder_writes_the_recorders_bytes() {
+    let dir = scratch_dir("background");
+    let (alone, behind) = (dir.join("alone.rrd"), dir.join("background.rrd"));
+    let layout = layout(2, &[("joints/position", 2), ("effort/commanded", 1)]);
+    write_run(Recorder::create(&alone, &layout).expect("create"));
+    let recorder = Recorder::create(&behind, &layout).expect("create");
+    let outcome = write_run(BackgroundRecorder::start(recorder).expect("start"));
+    assert_eq!(outcome.path, behind);
+    let (a, b) = (
+        std::fs::read(&alone).unwrap(),
+        std::fs::read(&behind).unwrap(),
+    );
+    assert_eq!(outcome.bytes, b.len() as u64);
+    assert!(
+        a == b,
+        "the two files differ ({} and {} bytes)",
+        a.len(),
+        b.len()
+    );
+    verify(&behind);
+    cleanup(&dir);
+}
+
+#[test]
+fn a_background_recorder_dropped_unfinished_leaves_no_file() {
+    let dir = scratch_dir("background-dropped");
+    let path = dir.join("run.rrd");
+    let recorder = Recorder::create(&path, &layout(2, &[("process", 3)])).expect("create");
+    let mut rec = BackgroundRecorder::start(recorder).expect("start");
+    for step in 0..(FLUSH_EVERY as i64 + 1234) {
+        let t = step as f64 * 1e-3;
+        rec.push(step, t, &poses(2, t), &[1.0, 2.0, 3.0], &[])
+            .expect("push");
+    }
+    drop(rec);
+    assert!(files_in(&dir).is_empty(), "{:?}", files_in(&dir));
+    cleanup(&dir);
+}

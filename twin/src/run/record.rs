@@ -13,8 +13,8 @@ use super::summary::RunSummary;
 use crate::mechanism::{Pose2, Shape};
 use crate::physics::Collision;
 use crate::recording::{
-    ColumnRole, LiveViewer, PlotSpec, PlotTab, Recorder, RecordingLayout, SeriesColumn, SeriesRole,
-    SeriesSpec,
+    BackgroundRecorder, ColumnRole, LiveViewer, PlotSpec, PlotTab, Recorder, RecordingLayout,
+    SeriesColumn, SeriesRole, SeriesSpec,
 };
 use crate::scene::Scene;
 use framework::{EventLevel, SignalSpec, Unit};
@@ -32,7 +32,8 @@ pub struct RecordingObserver {
     plain: Vec<bool>,
     /// The run's first event: scenario, controller, parameters digest.
     start_text: String,
-    recorder: Option<Recorder>,
+    /// The file's writer, on a thread of its own.
+    recorder: Option<BackgroundRecorder>,
     /// Per scene marker: where its x and y come from in `values`.
     marker_sources: Vec<MarkerValues>,
     values: Vec<f64>,
@@ -491,7 +492,7 @@ impl Observer for RecordingObserver {
             self.marker_sources = bind_markers(scene, layout);
         }
         self.markers = vec![[f64::NAN; 2]; self.marker_sources.len()];
-        let mut recorder = Recorder::create(&self.path, &self.layout)?;
+        let mut recorder = BackgroundRecorder::start(Recorder::create(&self.path, &self.layout)?)?;
         recorder.event(0, 0.0, EventLevel::Info, &self.start_text)?;
         self.recorder = Some(recorder);
         Ok(())
