@@ -1,6 +1,6 @@
-//! The exact engine: Rapier holds the URDF tree as multibodies (reduced coordinates) and poses
-//! the end-of-step state ([`super::rapier_model`]); the stages in between are posed by the
-//! twin's own recursion over the same tree ([`super::tree`], checked against Rapier's). The twin
+//! The exact engine: Rapier holds the URDF tree as multibodies (reduced coordinates,
+//! [`super::rapier_model`]); every stage and every end-of-step state is posed by the twin's own
+//! recursion over the same tree ([`super::tree`], checked against Rapier's). The twin
 //! builds the equations of motion from the link poses and body Jacobians, with each
 //! `<loop_joint>` as a holonomic constraint ([`super::dynamics`]), and advances them itself:
 //!
@@ -43,7 +43,7 @@ pub(super) struct ExactSettings {
 pub(super) struct ExactEngine {
     pub(super) model: Model,
     pub(super) rapier: RapierModel,
-    /// The stages' kinematics (Rapier poses the end-of-step state).
+    /// The tree's kinematics: every stage's pose and the end-of-step one.
     tree: Tree,
     pub(super) dynamics: Dynamics,
     settings: ExactSettings,
@@ -271,24 +271,15 @@ impl ExactEngine {
         }
     }
 
-    /// Poses the mechanism at `q` (Rapier's pose: the end-of-step state), first bringing the
-    /// loop constraints to zero by Gauss–Newton (the mass-weighted least correction each
-    /// iteration). The first check is on the tree's own kinematics; a corrected q is posed by
-    /// Rapier, as it is most likely the end-of-step state.
+    /// Poses the mechanism at `q` by the tree's recursion, first bringing the loop constraints to
+    /// zero by Gauss–Newton (the mass-weighted least correction each iteration).
     fn close_loops(&mut self) {
         let n = self.q.len();
-        let mut posed_by_rapier = false;
-        for iteration in 0..CLOSURE_ITERATIONS {
-            if self.model.constraint_count == 0 {
-                break;
-            }
-            posed_by_rapier = iteration > 0;
-            match posed_by_rapier {
-                true => self
-                    .rapier
-                    .pose(&self.model.mechanism, &self.q, &mut self.kin),
-                false => self.tree.pose(&self.q, &mut self.kin),
-            }
+        self.tree.pose(&self.q, &mut self.kin);
+        if self.model.constraint_count == 0 {
+            return;
+        }
+        for _ in 0..CLOSURE_ITERATIONS {
             self.dynamics.constraints(&self.model, &self.kin, None);
             let residual = self
                 .dynamics
@@ -296,7 +287,7 @@ impl ExactEngine {
                 .iter()
                 .fold(0.0, |m: f64, p| m.max(p.abs()));
             if residual <= CLOSURE_TOLERANCE || !residual.is_finite() {
-                break;
+                return;
             }
             let dq = &mut self.stage.column[..n];
             self.dynamics
@@ -304,11 +295,7 @@ impl ExactEngine {
             for (q, d) in self.q.iter_mut().zip(dq.iter()) {
                 *q += *d;
             }
-            posed_by_rapier = false;
-        }
-        if !posed_by_rapier {
-            self.rapier
-                .pose(&self.model.mechanism, &self.q, &mut self.kin);
+            self.tree.pose(&self.q, &mut self.kin);
         }
     }
 

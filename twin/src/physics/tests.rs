@@ -268,8 +268,8 @@ fn each_integrator_closes_the_loops_and_converges_at_its_order() {
             "{integrator:?}: order {observed:.2}, not {order} ({coarse:e}, {fine:e} m against \
              {reference:e} m)"
         );
-        // The closure holds φ to 1e-12; the gap between the loop frames that Rapier's poses
-        // give rounds a little above it (RK4: 1.4e-12 m).
+        // The closure holds φ to 1e-12; the gap between the loop frames of the links' poses
+        // rounds a little above it.
         let gap = coarse_gap.max(fine_gap);
         assert!(gap <= 2e-12, "{integrator:?}: a loop gap of {gap:e} m");
         println!("{integrator:?}: order {observed:.2}, loop gap {gap:.1e} m");

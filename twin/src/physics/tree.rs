@@ -2,8 +2,9 @@
 //! mass and body Jacobians at a configuration q, by one pass down the tree Rapier holds (parents
 //! before children) and one over each link's ancestors. Rapier's multibodies answer the same
 //! question ([`super::rapier_model`]) with the generality of 3-D joints; the engine asks it
-//! several times a step, so the stages use this plain planar recursion and Rapier poses the
-//! end-of-step state. Both are checked against each other on every machine.
+//! several times a step, so it uses this plain planar recursion for every stage and the
+//! end-of-step state, and Rapier's for the linearisation. Both are checked against each other on
+//! every machine.
 
 use super::dynamics::{Frame, Kinematics};
 use crate::mechanism::{JointMotion, Mechanism};
