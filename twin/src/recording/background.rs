@@ -194,11 +194,14 @@ impl BackgroundRecorder {
     }
 
     fn queue(&mut self, work: Work) -> Result<(), RecordingError> {
-        let sent = self.work.as_ref().map(|queue| queue.send(work));
+        let sent = self
+            .work
+            .as_ref()
+            .is_none_or(|queue| queue.send(work).is_ok());
         match sent {
-            Some(Ok(())) | None => Ok(()),
+            true => Ok(()),
             // The writer is gone: it failed (its error says why) or panicked.
-            Some(Err(_)) => self.check().and(Err(self.stopped())),
+            false => self.check().and(Err(self.stopped())),
         }
     }
 
