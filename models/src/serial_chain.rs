@@ -61,8 +61,12 @@ impl SerialChain {
     /// Joint torques τ = M(q)·q̈ + C(q, q̇)·q̇ + g(q), with `gravity` scaling the gravity term
     /// (0 or 1): recursive Newton–Euler, outward for accelerations, inward for forces.
     fn inverse_dynamics(&self, q: &[f64], qd: &[f64], qdd: &[f64], gravity: f64) -> Vec<f64> {
+        self.newton_euler(&self.frames(q), qd, qdd, gravity)
+    }
+
+    /// [`SerialChain::inverse_dynamics`] at the configuration whose `frames` are given.
+    fn newton_euler(&self, frames: &Frames, qd: &[f64], qdd: &[f64], gravity: f64) -> Vec<f64> {
         let n = self.links.len();
-        let frames = self.frames(q);
         let (mut omega, mut alpha) = (0.0, 0.0);
         // Gravity as an upward acceleration of the base.
         let mut joint_acc = [-gravity * self.gravity[0], -gravity * self.gravity[1]];
@@ -99,15 +103,17 @@ impl SerialChain {
     }
 
     /// The joint-space mass matrix M(q), row by row: column k is the torque for q̈ = e_k at rest
-    /// without gravity.
+    /// without gravity. The configuration's frames are made once for all the columns.
     pub fn mass_matrix(&self, q: &[f64]) -> Vec<Vec<f64>> {
         let n = self.links.len();
+        let frames = self.frames(q);
         let zero = vec![0.0; n];
         let mut mass = vec![vec![0.0; n]; n];
+        let mut unit = zero.clone();
         for k in 0..n {
-            let mut unit = zero.clone();
+            unit.fill(0.0);
             unit[k] = 1.0;
-            let column = self.inverse_dynamics(q, &zero, &unit, 0.0);
+            let column = self.newton_euler(&frames, &zero, &unit, 0.0);
             for (row, value) in mass.iter_mut().zip(column) {
                 row[k] = value;
             }
