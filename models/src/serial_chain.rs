@@ -31,6 +31,15 @@ pub struct SerialChain {
     pub gravity: [f64; 2],
 }
 
+/// What a Newton–Euler pass's outward sweep leaves for its inward one, per link.
+#[derive(Default)]
+struct Sweep {
+    /// Centre-of-mass accelerations, m/s².
+    com_acc: Vec<[f64; 2]>,
+    /// Angular accelerations, rad/s².
+    alpha: Vec<f64>,
+}
+
 /// Per-link positions in the world for a configuration.
 struct Frames {
     /// Joint (link frame origin) positions.
@@ -61,17 +70,31 @@ impl SerialChain {
     /// Joint torques τ = M(q)·q̈ + C(q, q̇)·q̇ + g(q), with `gravity` scaling the gravity term
     /// (0 or 1): recursive Newton–Euler, outward for accelerations, inward for forces.
     fn inverse_dynamics(&self, q: &[f64], qd: &[f64], qdd: &[f64], gravity: f64) -> Vec<f64> {
-        self.newton_euler(&self.frames(q), qd, qdd, gravity)
+        let mut torque = vec![0.0; self.links.len()];
+        let sweep = &mut Sweep::default();
+        self.newton_euler(&self.frames(q), (qd, qdd, gravity), sweep, &mut torque);
+        torque
     }
 
-    /// [`SerialChain::inverse_dynamics`] at the configuration whose `frames` are given.
-    fn newton_euler(&self, frames: &Frames, qd: &[f64], qdd: &[f64], gravity: f64) -> Vec<f64> {
+    /// [`SerialChain::inverse_dynamics`] into `torque`, at the configuration whose `frames` are
+    /// given, for (q̇, q̈, gravity's scale); `sweep` keeps the outward pass for the inward one.
+    fn newton_euler(
+        &self,
+        frames: &Frames,
+        (qd, qdd, gravity): (&[f64], &[f64], f64),
+        sweep: &mut Sweep,
+        torque: &mut [f64],
+    ) {
         let n = self.links.len();
         let (mut omega, mut alpha) = (0.0, 0.0);
         // Gravity as an upward acceleration of the base.
         let mut joint_acc = [-gravity * self.gravity[0], -gravity * self.gravity[1]];
-        let mut com_acc = vec![[0.0; 2]; n];
-        let mut link_alpha = vec![0.0; n];
+        let Sweep {
+            com_acc,
+            alpha: link_alpha,
+        } = sweep;
+        com_acc.resize(n, [0.0; 2]);
+        link_alpha.resize(n, 0.0);
         for i in 0..n {
             if i > 0 {
                 let r = sub(frames.joint[i], frames.joint[i - 1]);
@@ -83,7 +106,6 @@ impl SerialChain {
             com_acc[i] = add(joint_acc, rigid_acceleration(alpha, omega, r));
             link_alpha[i] = alpha;
         }
-        let mut torque = vec![0.0; n];
         let (mut force, mut moment) = ([0.0; 2], 0.0);
         let mut outer_joint = [0.0; 2];
         for i in (0..n).rev() {
@@ -99,23 +121,24 @@ impl SerialChain {
             outer_joint = frames.joint[i];
             torque[i] = moment;
         }
-        torque
     }
 
     /// The joint-space mass matrix M(q), row by row: column k is the torque for q̈ = e_k at rest
-    /// without gravity. The configuration's frames are made once for all the columns.
+    /// without gravity. The configuration's frames, and the passes' buffers, are made once for
+    /// all the columns.
     pub fn mass_matrix(&self, q: &[f64]) -> Vec<Vec<f64>> {
         let n = self.links.len();
         let frames = self.frames(q);
         let zero = vec![0.0; n];
         let mut mass = vec![vec![0.0; n]; n];
-        let mut unit = zero.clone();
+        let (mut unit, mut column) = (zero.clone(), zero.clone());
+        let sweep = &mut Sweep::default();
         for k in 0..n {
             unit.fill(0.0);
             unit[k] = 1.0;
-            let column = self.newton_euler(&frames, &zero, &unit, 0.0);
-            for (row, value) in mass.iter_mut().zip(column) {
-                row[k] = value;
+            self.newton_euler(&frames, (&zero, &unit, 0.0), sweep, &mut column);
+            for (row, value) in mass.iter_mut().zip(&column) {
+                row[k] = *value;
             }
         }
         mass
@@ -201,16 +224,29 @@ fn cross(a: [f64; 2], b: [f64; 2]) -> f64 {
 
 /// Solves the small non-singular system `a·x = b` by Gaussian elimination with partial pivoting.
 pub fn solve(mut a: Vec<Vec<f64>>, mut b: Vec<f64>) -> Vec<f64> {
+    let mut x = vec![0.0; b.len()];
+    solve_in_place(&mut a, &mut b, &mut x);
+    x
+}
+
+/// [`solve`] on rows of any kind (fixed arrays need no allocation): `a` and `b` are overwritten
+/// by the elimination, the solution written to `x`.
+pub fn solve_in_place<R: AsRef<[f64]> + AsMut<[f64]>>(a: &mut [R], b: &mut [f64], x: &mut [f64]) {
     let n = b.len();
     for col in 0..n {
         let pivot = (col..n)
-            .max_by(|&i, &j| a[i][col].abs().total_cmp(&a[j][col].abs()))
+            .max_by(|&i, &j| {
+                a[i].as_ref()[col]
+                    .abs()
+                    .total_cmp(&a[j].as_ref()[col].abs())
+            })
             .unwrap_or(col);
         a.swap(col, pivot);
         b.swap(col, pivot);
         let (upper, lower) = a.split_at_mut(col + 1);
-        let pivot_row = &upper[col];
+        let pivot_row = upper[col].as_ref();
         for (offset, row) in lower.iter_mut().enumerate() {
+            let row = row.as_mut();
             let factor = row[col] / pivot_row[col];
             for (x, p) in row[col..].iter_mut().zip(&pivot_row[col..]) {
                 *x -= factor * p;
@@ -218,12 +254,10 @@ pub fn solve(mut a: Vec<Vec<f64>>, mut b: Vec<f64>) -> Vec<f64> {
             b[col + 1 + offset] -= factor * b[col];
         }
     }
-    let mut x = vec![0.0; n];
     for row in (0..n).rev() {
-        let tail: f64 = (row + 1..n).map(|k| a[row][k] * x[k]).sum();
-        x[row] = (b[row] - tail) / a[row][row];
+        let tail: f64 = (row + 1..n).map(|k| a[row].as_ref()[k] * x[k]).sum();
+        x[row] = (b[row] - tail) / a[row].as_ref()[row];
     }
-    x
 }
 
 #[cfg(test)]

@@ -35,7 +35,7 @@ use framework::{ControllerError, Measurement, PlantInterface, SignalSpec, Unit};
 use models::arm::path::{
     ArmGeometry, Contour, ContourPath, Elbow, JointPath, PathCursor, PathError,
 };
-use models::serial_chain::{solve, ChainLink, SerialChain};
+use models::serial_chain::{solve_in_place, ChainLink, SerialChain};
 use serde::Deserialize;
 
 /// The arm's joints, in the order of every per-joint array.
@@ -495,40 +495,35 @@ fn limited_torques(mass: &[Vec<f64>], demand: [f64; 3], limits: [f64; 3]) -> ([f
     let (mut torques, mut clipped) = ([0.0; 3], [false; 3]);
     loop {
         // Unknowns: a_k of the clipped joints k, τ_k of the free ones.
-        let system = (0..3)
-            .map(|i| {
-                (0..3)
-                    .map(|k| match (clipped[k], i == k) {
-                        (true, _) => mass[i][k],
-                        (false, true) => -1.0,
-                        (false, false) => 0.0,
-                    })
-                    .collect()
+        let mut system: [[f64; 3]; 3] = std::array::from_fn(|i| {
+            std::array::from_fn(|k| match (clipped[k], i == k) {
+                (true, _) => mass[i][k],
+                (false, true) => -1.0,
+                (false, false) => 0.0,
             })
-            .collect();
-        let rhs = (0..3)
-            .map(|i| {
-                let known: f64 = (0..3)
-                    .filter(|&k| !clipped[k])
-                    .map(|k| mass[i][k] * demand[k])
-                    .sum();
-                if clipped[i] {
-                    torques[i] - known
-                } else {
-                    -known
-                }
-            })
-            .collect();
-        let unknowns = solve(system, rhs);
-        let free: Vec<usize> = (0..3).filter(|&i| !clipped[i]).collect();
-        free.iter().for_each(|&i| torques[i] = unknowns[i]);
-        let excess = |i: &&usize| torques[**i].abs() / limits[**i];
-        match free
-            .iter()
-            .filter(|i| excess(i) > 1.0)
-            .max_by(|a, b| excess(a).total_cmp(&excess(b)))
+        });
+        let mut rhs: [f64; 3] = std::array::from_fn(|i| {
+            let known: f64 = (0..3)
+                .filter(|&k| !clipped[k])
+                .map(|k| mass[i][k] * demand[k])
+                .sum();
+            if clipped[i] {
+                torques[i] - known
+            } else {
+                -known
+            }
+        });
+        let mut unknowns = [0.0; 3];
+        solve_in_place(&mut system, &mut rhs, &mut unknowns);
+        for i in (0..3).filter(|&i| !clipped[i]) {
+            torques[i] = unknowns[i];
+        }
+        let excess = |i: usize| torques[i].abs() / limits[i];
+        match (0..3)
+            .filter(|&i| !clipped[i] && excess(i) > 1.0)
+            .max_by(|&a, &b| excess(a).total_cmp(&excess(b)))
         {
-            Some(&i) => {
+            Some(i) => {
                 torques[i] = torques[i].clamp(-limits[i], limits[i]);
                 clipped[i] = true;
             }
