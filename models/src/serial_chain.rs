@@ -144,6 +144,36 @@ impl SerialChain {
         mass
     }
 
+    /// The leading `N`×`N` block of M(q) (the first `N` joints'), by the composite-rigid-body
+    /// sum rather than Newton–Euler passes: joint i moves the centre of mass c_k of every link
+    /// k ≥ i at ω × (c_k − p_i), so `M_ij = Σ_{k ≥ max(i, j)} m_k·(c_k − p_i)·(c_k − p_j) + I_k`.
+    /// Equal to [`SerialChain::mass_matrix`] to rounding, with no allocation and one `sin_cos` a
+    /// link: a controller evaluates it every period. `q` has one angle per link.
+    pub fn mass_block<const N: usize>(&self, q: &[f64]) -> [[f64; N]; N] {
+        // The lower triangle, then mirrored.
+        let mut mass = [[0.0; N]; N];
+        let mut joints = [[0.0; 2]; N];
+        let (mut position, mut angle, mut turn) = ([0.0, 0.0], 0.0, (0.0, 1.0));
+        for (k, (link, &qk)) in self.links.iter().zip(q).enumerate() {
+            position = add(position, turned(turn, [link.origin[0], link.origin[1]]));
+            angle += link.origin[2] + qk;
+            turn = angle.sin_cos();
+            let com = add(position, turned(turn, link.centre_of_mass));
+            if k < N {
+                joints[k] = position;
+            }
+            let reach = (k + 1).min(N);
+            for i in 0..reach {
+                let ri = sub(com, joints[i]);
+                for j in 0..=i {
+                    let rj = sub(com, joints[j]);
+                    mass[i][j] += link.mass * (ri[0] * rj[0] + ri[1] * rj[1]) + link.izz;
+                }
+            }
+        }
+        std::array::from_fn(|i| std::array::from_fn(|j| mass[i.max(j)][i.min(j)]))
+    }
+
     /// q̈ under joint torques `tau` (plus the joints' damping), solving M·q̈ = τ − h.
     pub fn acceleration(&self, q: &[f64], qd: &[f64], tau: &[f64]) -> Vec<f64> {
         let n = self.links.len();
@@ -206,7 +236,11 @@ fn rigid_acceleration(alpha: f64, omega: f64, r: [f64; 2]) -> [f64; 2] {
 }
 
 fn rotate(angle: f64, v: [f64; 2]) -> [f64; 2] {
-    let (s, c) = angle.sin_cos();
+    turned(angle.sin_cos(), v)
+}
+
+/// `v` turned by the angle whose (sine, cosine) is given.
+fn turned((s, c): (f64, f64), v: [f64; 2]) -> [f64; 2] {
     [c * v[0] - s * v[1], s * v[0] + c * v[1]]
 }
 
@@ -286,6 +320,41 @@ mod tests {
         // Spinning at ω, hanging down: no angular acceleration, torque-free.
         let a = chain.acceleration(&[-std::f64::consts::FRAC_PI_2], &[3.0], &[0.0]);
         assert!(a[0].abs() < 1e-12, "{a:?}");
+    }
+
+    #[test]
+    fn the_mass_block_is_newton_eulers_mass_matrix() {
+        let link = |x: f64, angle: f64, mass: f64| ChainLink {
+            origin: [x, 0.05, angle],
+            mass,
+            centre_of_mass: [0.12, -0.03],
+            izz: 0.02 * mass,
+            damping: 0.0,
+        };
+        let chain = SerialChain {
+            links: vec![
+                link(0.1, 0.2, 3.0),
+                link(0.4, -0.1, 2.0),
+                link(0.3, 0.0, 1.0),
+                link(0.1, 0.3, 0.5),
+            ],
+            gravity: [0.0, -9.81],
+        };
+        for q in [[0.0; 4], [0.3, -1.2, 0.4, 0.0], [2.5, 1.1, -2.9, 0.7]] {
+            let full = chain.mass_matrix(&q);
+            let block: [[f64; 3]; 3] = chain.mass_block(&q);
+            for i in 0..3 {
+                for j in 0..3 {
+                    let scale = full[i][i].abs().max(full[j][j].abs());
+                    assert!(
+                        (block[i][j] - full[i][j]).abs() <= 1e-14 * scale,
+                        "{q:?} ({i}, {j}): {} vs {}",
+                        block[i][j],
+                        full[i][j]
+                    );
+                }
+            }
+        }
     }
 
     #[test]

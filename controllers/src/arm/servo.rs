@@ -458,7 +458,7 @@ impl ArmServo {
     fn servo(&mut self, q: [f64; 3], velocity: [f64; 3], reference: Reference, period: f64) {
         let (position, rate, acceleration) = reference;
         let g = self.design.gains;
-        let mass = self.design.model.mass_matrix(&[q[0], q[1], q[2], 0.0]);
+        let mass = self.design.model.mass_block(&[q[0], q[1], q[2], 0.0]);
         let torque_per_ampere = self.params.torque_per_ampere;
         let limits = std::array::from_fn(|i| self.current_limits[i] * torque_per_ampere[i]);
         let errors: [f64; 3] = std::array::from_fn(|i| position[i] - q[i]);
@@ -491,7 +491,11 @@ impl ArmServo {
 /// none is (at most four rounds). Clamping each torque of `M̂·a` on its own would hand the others
 /// the torques of an acceleration the clipped joint cannot make: a shoulder at its limit would
 /// throw the elbow and wrist about. Returns the torques and which joints are clipped.
-fn limited_torques(mass: &[Vec<f64>], demand: [f64; 3], limits: [f64; 3]) -> ([f64; 3], [bool; 3]) {
+fn limited_torques(
+    mass: &[[f64; 3]; 3],
+    demand: [f64; 3],
+    limits: [f64; 3],
+) -> ([f64; 3], [bool; 3]) {
     let (mut torques, mut clipped) = ([0.0; 3], [false; 3]);
     loop {
         // Unknowns: a_k of the clipped joints k, τ_k of the free ones.
@@ -664,7 +668,7 @@ mod tests {
     fn model_is_the_urdf_arm() {
         let m = model("test", &ServoParams::default())
             .unwrap()
-            .mass_matrix(&[0.0; 4]);
+            .mass_block::<3>(&[0.0; 4]);
         let wrist = 0.01 + 3.5 * 0.09f64.powi(2) + 2e-4 + 0.4 * 0.12f64.powi(2);
         assert!((m[2][2] - wrist).abs() < 1e-12, "{m:?}");
         assert!((m[0][1] - m[1][0]).abs() < 1e-12, "{m:?}");
@@ -747,7 +751,7 @@ mod tests {
     fn a_clipped_joint_leaves_the_others_their_accelerations() {
         let mass = model("test", &ServoParams::default())
             .unwrap()
-            .mass_matrix(&[0.3, -1.2, 0.4, 0.0]);
+            .mass_block(&[0.3, -1.2, 0.4, 0.0]);
         let demand = [500.0, 20.0, -30.0];
         assert!((mass[1][0] * demand[0]).abs() > 60.0);
         let (torques, clipped) = limited_torques(&mass, demand, [84.0, 60.0, 20.0]);
