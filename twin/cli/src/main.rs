@@ -9,6 +9,7 @@ use twin_cli::usage::usage_error;
 
 fn main() -> ExitCode {
     quiet_broken_pipe();
+    keep_freed_memory();
     let cli = match Cli::try_parse() {
         Ok(cli) => cli,
         Err(error) => return usage_error(&error),
@@ -40,5 +41,20 @@ fn quiet_broken_pipe() {
     // SAFETY: setting a signal's disposition to SIG_DFL before any thread starts.
     unsafe {
         libc::signal(libc::SIGPIPE, libc::SIG_DFL);
+    }
+}
+
+/// glibc's allocator gives freed memory back to the kernel eagerly: it trims a thread's arena
+/// once 128 KiB lie free at its top, and maps blocks over its (adaptive) mmap threshold one by
+/// one. A recording's threads allocate and free batch-sized blocks all run long, so each batch
+/// faulted its pages in afresh: a recorded 50 s Whitworth took 15,000 page faults and 10 % more
+/// processor time than with up to 32 MiB kept (3,700 faults). Fixed thresholds (glibc's
+/// `M_TRIM_THRESHOLD`, `M_MMAP_THRESHOLD`) keep them; other platforms keep their allocator's ways.
+fn keep_freed_memory() {
+    #[cfg(all(target_os = "linux", target_env = "gnu"))]
+    // SAFETY: mallopt only changes the allocator's thresholds; called before any thread starts.
+    unsafe {
+        libc::mallopt(libc::M_TRIM_THRESHOLD, 32 << 20);
+        libc::mallopt(libc::M_MMAP_THRESHOLD, 32 << 20);
     }
 }
