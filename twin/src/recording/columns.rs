@@ -14,6 +14,7 @@ use rerun::{
 
 use super::entities::{MAX_TRACE_POINTS, SIM_TIME, STEP};
 use super::error::error_chain;
+use super::ids::RunIds;
 use framework::Unit;
 
 /// A link's buffered world poses.
@@ -74,6 +75,7 @@ impl MarkerBuffer {
 /// non-finite ones.
 pub(super) fn send_marker(
     stream: &RecordingStream,
+    ids: &mut RunIds,
     marker: &MarkerBuffer,
     steps: &[i64],
     times: &[f64],
@@ -95,13 +97,12 @@ pub(super) fn send_marker(
         .flat_map(|&i| marker.positions[2 * i..2 * i + 2].iter().copied())
         .collect();
     let column = position_column(xy).map_err(|e| error_chain(&*e))?;
-    stream
-        .send_columns(
-            marker.entity.clone(),
-            timeline_columns(&steps, &times),
-            [column],
-        )
-        .map_err(|err| error_chain(&err))
+    ids.send_columns(
+        stream,
+        marker.entity.clone(),
+        timeline_columns(&steps, &times),
+        [column],
+    )
 }
 
 /// A `Points2D` positions column of one point per row from x, y pairs.
@@ -134,6 +135,7 @@ pub(super) fn timeline_columns(steps: &[i64], times: &[f64]) -> [TimeColumn; 2] 
 /// components' own datatypes: this is several times cheaper than serializing component structs.
 pub(super) fn send_poses(
     stream: &RecordingStream,
+    ids: &mut RunIds,
     link: &LinkPoses,
     timelines: [TimeColumn; 2],
 ) -> Result<(), String> {
@@ -142,9 +144,7 @@ pub(super) fn send_poses(
         return Ok(());
     }
     let columns = pose_columns(&link.translations, &link.angles).map_err(|e| error_chain(&*e))?;
-    stream
-        .send_columns(link.entity.clone(), timelines, columns)
-        .map_err(|err| error_chain(&err))
+    ids.send_columns(stream, link.entity.clone(), timelines, columns)
 }
 
 pub(super) type BoxedError = Box<dyn std::error::Error + Send + Sync>;

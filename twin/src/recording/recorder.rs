@@ -17,6 +17,7 @@ use super::entities::{
     application_id, COLLISIONS, EVENTS, FLUSH_EVERY, MAX_BYTES_IN_FLIGHT, SUMMARY, TRACE_EVERY,
 };
 use super::error::{error_chain, RecordingError};
+use super::ids::RunIds;
 use super::layout::{figure_entity, PlotSpec, RecordingLayout};
 use super::live::LiveHandle;
 use super::plot_data::Plot2D;
@@ -51,6 +52,8 @@ pub struct Recorder {
     live: Option<LiveHandle>,
     /// Flushes of the pipeline started, one per buffer sent from `push`.
     flushes: u64,
+    /// The ids of the chunks the recorder sends.
+    ids: RunIds,
     links: Vec<LinkPoses>,
     groups: Vec<Group>,
     markers: Vec<MarkerBuffer>,
@@ -136,6 +139,7 @@ impl Recorder {
             file,
             live,
             flushes: 0,
+            ids: RunIds::new(),
             links,
             groups,
             markers,
@@ -258,9 +262,9 @@ impl Recorder {
             .columns_of_unit_batches()
             .map_err(|err| error_chain(&err))
             .and_then(|columns| {
-                stream
-                    .send_columns(EVENTS, timeline_columns(&[step], &[time]), columns)
-                    .map_err(|err| error_chain(&err))
+                let timelines = timeline_columns(&[step], &[time]);
+                self.ids
+                    .send_columns(stream, EVENTS.into(), timelines, columns)
             })
             .map_err(|reason| self.write_error(reason))?;
         self.check()
@@ -293,9 +297,9 @@ impl Recorder {
             .columns([count])
             .map_err(|err| error_chain(&err))
             .and_then(|columns| {
-                stream
-                    .send_columns(COLLISIONS, timeline_columns(&[step], &[time]), columns)
-                    .map_err(|err| error_chain(&err))
+                let timelines = timeline_columns(&[step], &[time]);
+                self.ids
+                    .send_columns(stream, COLLISIONS.into(), timelines, columns)
             })
             .map_err(|reason| self.write_error(reason))?;
         self.check()
@@ -346,13 +350,9 @@ impl Recorder {
             let columns = strip
                 .columns_of_unit_batches()
                 .map_err(|err| error_chain(&err))?;
-            stream
-                .send_columns(
-                    entity.clone(),
-                    timeline_columns(&[step], &[self.last_time]),
-                    columns,
-                )
-                .map_err(|err| error_chain(&err))?;
+            let timelines = timeline_columns(&[step], &[self.last_time]);
+            self.ids
+                .send_columns(stream, entity.clone(), timelines, columns)?;
         }
         Ok(())
     }
@@ -416,6 +416,7 @@ impl Recorder {
             return Ok(());
         }
         let timelines = timeline_columns(&self.steps, &self.times);
+        let ids = &mut self.ids;
         let mut first_error = None;
         let mut note = |result: Result<(), String>| {
             if let Err(reason) = result {
@@ -439,16 +440,15 @@ impl Recorder {
                     .partitioned(std::iter::repeat_n(width, rows))
                     .map_err(|err| error_chain(&err))
                     .and_then(|column| {
-                        stream
-                            .send_columns(group.entity.clone(), timelines.clone(), [column])
-                            .map_err(|err| error_chain(&err))
+                        let entity = group.entity.clone();
+                        ids.send_columns(stream, entity, timelines.clone(), [column])
                     }),
             );
         }
 
         for link in &mut self.links {
             let result = if link.all_finite {
-                send_poses(stream, link, timelines.clone())
+                send_poses(stream, ids, link, timelines.clone())
             } else {
                 let kept: Vec<usize> = (0..rows)
                     .filter(|&i| {
@@ -465,7 +465,7 @@ impl Recorder {
                     .iter()
                     .flat_map(|&i| link.translations[3 * i..3 * i + 3].iter().copied())
                     .collect();
-                send_poses(stream, link, timeline_columns(&steps, &times))
+                send_poses(stream, ids, link, timeline_columns(&steps, &times))
             };
             note(result);
             link.translations.clear();
@@ -474,7 +474,7 @@ impl Recorder {
         }
 
         for marker in &mut self.markers {
-            note(send_marker(stream, marker, &self.steps, &self.times));
+            note(send_marker(stream, ids, marker, &self.steps, &self.times));
             marker.positions.clear();
         }
 

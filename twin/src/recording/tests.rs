@@ -465,6 +465,51 @@ fn record(path: &Path, samples: i64) -> RecordingOutcome {
     rec.finish().expect("finish")
 }
 
+/// The ids in a file: every row's is unique; each entity's static rows, and its sampled rows,
+/// are numbered in the order the file holds them (a later row wins a tie; a static row shadows
+/// every sampled one whatever their ids); the sampled columns keep the ids the recorder gave them,
+/// after all of the static parts'; and the same run writes the same bytes.
+#[test]
+fn row_ids_follow_the_run_and_the_file_order() {
+    use rerun::external::re_log_types::LogMsg;
+    use rerun::log::Chunk;
+    use std::collections::{HashMap, HashSet};
+    let dir = scratch_dir("row-ids");
+    let (first, second) = (dir.join("first.rrd"), dir.join("second.rrd"));
+    record(&first, 700);
+    record(&second, 700);
+    let bytes = std::fs::read(&first).expect("read");
+    assert!(
+        bytes == std::fs::read(&second).expect("read"),
+        "two runs differ"
+    );
+    let (mut seen, mut last) = (HashSet::new(), HashMap::new());
+    let (mut static_ids, mut sampled_ids) = (Vec::new(), Vec::new());
+    for msg in DecoderApp::decode_lazy(bytes.as_slice()) {
+        let LogMsg::ArrowMsg(_, arrow) = msg.expect("decode") else {
+            continue;
+        };
+        let chunk = Chunk::from_arrow_msg(&arrow).expect("chunk");
+        for row in chunk.row_ids() {
+            let id = row.as_u128();
+            assert!(seen.insert(id), "row id {id:x} twice");
+            let key = (chunk.entity_path().clone(), chunk.is_static());
+            let previous = last.insert(key, id);
+            assert!(previous < Some(id), "{} out of order", chunk.entity_path());
+            let sampled = chunk.entity_path().to_string().starts_with("/signals/");
+            match (chunk.is_static(), sampled) {
+                (true, _) => static_ids.push(id),
+                (false, true) => sampled_ids.push(id),
+                (false, false) => {}
+            }
+        }
+    }
+    let (highest_static, lowest_sampled) = (static_ids.iter().max(), sampled_ids.iter().min());
+    assert_eq!(sampled_ids.len(), 700);
+    assert!(highest_static < lowest_sampled);
+    cleanup(&dir);
+}
+
 #[test]
 fn concurrent_recorders_of_one_path_leave_one_complete_file() {
     let dir = scratch_dir("concurrent");

@@ -4,7 +4,7 @@
 //! "File-writer thread shut down prematurely", at the end of the run. Here the same encoder
 //! (`re_log_encoding::Encoder`) writes straight to the file from Rerun's forwarding thread, and the
 //! first failure is kept with the OS's reason for the recorder to report at once. Unlike the
-//! `FileSink`'s, the ids come from the run ([`Renumbering`]) and the footer's manifests are in a
+//! `FileSink`'s, the ids come from the run ([`super::ids`]) and the footer's manifests are in a
 //! fixed order ([`super::footer`]): the same run writes the same bytes.
 //!
 //! Files are written under a unique temporary name next to their final one and renamed onto it
