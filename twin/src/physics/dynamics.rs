@@ -469,6 +469,34 @@ impl Dynamics {
         self.solve_constrained::<N>(kin, model.constraint_count, dq);
     }
 
+    /// The mass-weighted least correction of q for the drift φ ≈ −½·h²·γ that a step of `h`
+    /// at constant q̈ makes off the loops from a state on them (G·q̇ = 0, G·q̈ = −γ): the
+    /// configuration the last [`Self::acceleration`] was of, its factors and γ reused, so it costs
+    /// no factorisation. Into `dq`. A start for the closure's Gauss–Newton iterations, which
+    /// then need one fewer.
+    pub fn drift_correction(&mut self, model: &Model, kin: &Kinematics, h: f64, dq: &mut [f64]) {
+        sized!(
+            kin.n,
+            Dynamics::drift_correction_of(self, model, kin, h, dq)
+        )
+    }
+
+    #[inline(always)]
+    fn drift_correction_of<const N: usize>(
+        &mut self,
+        model: &Model,
+        kin: &Kinematics,
+        h: f64,
+        dq: &mut [f64],
+    ) {
+        dq.fill(0.0);
+        let m = model.constraint_count;
+        for (lambda, gamma) in self.lambda.iter_mut().zip(&self.gamma).take(m) {
+            *lambda = -0.5 * h * h * gamma;
+        }
+        self.solve_constrained::<N>(kin, m, dq);
+    }
+
     /// Projects v onto the constraints' tangent space, G·v = 0, mass-weighted (the kinetic
     /// energy removed is least, so no momentum is invented).
     pub fn project_velocity(&mut self, model: &Model, kin: &Kinematics, v: &mut [f64]) {
