@@ -71,6 +71,20 @@ struct Batch {
     markers: Vec<[f64; 2]>,
 }
 
+impl Batch {
+    /// An empty batch with room for as much as this one holds.
+    fn empty_alike(&self) -> Self {
+        Self {
+            steps: Vec::with_capacity(self.steps.len()),
+            times: Vec::with_capacity(self.times.len()),
+            ends: Vec::with_capacity(self.ends.len()),
+            poses: Vec::with_capacity(self.poses.len()),
+            values: Vec::with_capacity(self.values.len()),
+            markers: Vec::with_capacity(self.markers.len()),
+        }
+    }
+}
+
 /// The writer's first error, seen by the run's thread.
 #[derive(Default)]
 struct Failure {
@@ -188,7 +202,9 @@ impl BackgroundRecorder {
         if self.batch.steps.is_empty() {
             return Ok(());
         }
-        let fresh = self.spare.try_recv().unwrap_or_default();
+        // A batch the writer gave back, or one made as large as this one at once (grown
+        // sample by sample it would be copied over and over).
+        let fresh = (self.spare.try_recv()).unwrap_or_else(|_| self.batch.empty_alike());
         let full = std::mem::replace(&mut self.batch, fresh);
         self.queue(Work::Samples(full))
     }
