@@ -9,7 +9,8 @@
 //!    the scenario's `[solver] integrator` says, an explicit midpoint or a semi-implicit Euler
 //!    step: two evaluations or one);
 //! 2. joint limits as inelastic stops;
-//! 3. the loop closures made exact: Gauss–Newton on φ(q) = 0, mass-weighted, to 1e-12;
+//! 3. the loop closures made exact: Gauss–Newton on φ(q) = 0, mass-weighted, to 1e-12 (after a
+//!    semi-implicit Euler step, from its predicted drift corrected);
 //! 4. dry joint friction as one impulse per substep, which sticks the joint when it can;
 //! 5. the velocities projected on the constraints' tangent space, mass-weighted.
 //!
