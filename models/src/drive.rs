@@ -236,7 +236,7 @@ impl Drive {
     /// a separate matter, see `controllers/src/arm/servo.rs`).
     ///
     /// While no sample's voltage reaches the supply the step's samples are taken together, by
-    /// their [`LinearSpan`]; otherwise one by one.
+    /// their linear span (its rows made once per step length); otherwise one by one.
     pub fn step(&mut self, dt: f64, command: f64, joint_speed: f64) -> f64 {
         let p = self.params;
         let limit = p.current_limit;
