@@ -8,8 +8,9 @@
 //! - Every other message (the static parts, the store's info) is renumbered from a counter of
 //!   the file's ([`Renumbering`]), in the order it reaches the file — the order Rerun gave it.
 //!
-//! The two counters' ranges never meet: the run's ids all lie after the file's, as the sampled
-//! data are logged after the static parts, so a later row still wins a tie.
+//! The two counters' ranges never meet (the run's lie above the file's), and each counts in the
+//! order of sending, so among an entity's temporal rows, and among its static ones, a later row
+//! still wins a tie. A static row shadows the temporal ones whatever their ids.
 
 use rerun::external::arrow::array::{Array, FixedSizeBinaryArray};
 use rerun::external::arrow::buffer::Buffer;
