@@ -146,12 +146,12 @@ const LINEAR_SPAN_SAMPLES: f64 = 64.0;
 impl LinearSpan {
     /// The rows for `samples` intervals of `h`, from the drive's data sheet.
     fn new(p: &DriveParams, dt: f64, samples: usize, h: f64) -> Self {
-        let (kp, ki) = (
-            p.inductance * p.current_bandwidth,
-            p.resistance * p.current_bandwidth,
-        );
-        let decay = (-h * p.resistance / p.inductance).exp();
-        let mean_of_transient = (1.0 - decay) * p.inductance / (p.resistance * h);
+        let Sampling {
+            kp,
+            ki,
+            decay,
+            mean_of_transient,
+        } = Sampling::of(p, h);
         let combine = |a: [f64; 4], x: f64, b: [f64; 4], y: f64| -> [f64; 4] {
             std::array::from_fn(|n| a[n] * x + b[n] * y)
         };
@@ -177,6 +177,31 @@ impl LinearSpan {
             current,
             integral,
             charge,
+        }
+    }
+}
+
+/// The current loop sampled every `h`: its PI gains and, over one interval with the voltage
+/// held, the winding's decay and its transient's mean.
+struct Sampling {
+    /// K_p = L·ω_c, V/A.
+    kp: f64,
+    /// K_i = R·ω_c, V/(A·s).
+    ki: f64,
+    /// e^(−h·R/L).
+    decay: f64,
+    /// ∫ of s + (i₀ − s)·e^(−t·R/L) over one interval h, per unit h, of (i₀ − s).
+    mean_of_transient: f64,
+}
+
+impl Sampling {
+    fn of(p: &DriveParams, h: f64) -> Self {
+        let decay = (-h * p.resistance / p.inductance).exp();
+        Self {
+            kp: p.inductance * p.current_bandwidth,
+            ki: p.resistance * p.current_bandwidth,
+            decay,
+            mean_of_transient: (1.0 - decay) * p.inductance / (p.resistance * h),
         }
     }
 }
@@ -284,13 +309,12 @@ impl Drive {
     /// while it is; returns the step's charge ∫i dt (A·s).
     fn sampled_step(&mut self, samples: usize, h: f64, back_emf: f64) -> f64 {
         let p = self.params;
-        let (kp, ki) = (
-            p.inductance * p.current_bandwidth,
-            p.resistance * p.current_bandwidth,
-        );
-        let decay = (-h * p.resistance / p.inductance).exp();
-        // ∫ of s + (i₀ − s)·e^(−t·R/L) over one interval h, per unit h.
-        let mean_of_transient = (1.0 - decay) * p.inductance / (p.resistance * h);
+        let Sampling {
+            kp,
+            ki,
+            decay,
+            mean_of_transient,
+        } = Sampling::of(&p, h);
         let mut charge = 0.0;
         for _ in 0..samples {
             let error = self.command - self.current;
